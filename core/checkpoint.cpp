@@ -1,0 +1,130 @@
+// DiffusionPolicy::save / load / from_checkpoint.
+//
+// One file, torch's archive format (a zip): "format" and "version" tags, "config" (the PolicyConfig as
+// JSON), the four normaliser vectors, and the "model" and "ema" weights as sub-archives. Writing goes
+// through a temporary file and a rename, so a failed save (a full disk) never clobbers a good file.
+#include <filesystem>
+#include <fstream>
+
+#include <nlohmann/json.hpp>
+
+#include "core/nn/policy_impl.h"
+
+namespace dd {
+namespace {
+
+constexpr const char* kFormat = "diffdagger-policy";
+constexpr int64_t kVersion = 1;
+
+torch::Tensor vec_tensor(const Vec& v) {
+  return torch::from_blob(const_cast<float*>(v.data()), {v.size()}, torch::kFloat32).clone();
+}
+
+Vec tensor_vec(const torch::Tensor& t) {
+  const torch::Tensor c = t.contiguous().to(torch::kFloat32);
+  return Eigen::Map<const Vec>(c.data_ptr<float>(), c.numel());
+}
+
+// First line of a torch error: the rest is a C++ backtrace nobody wants to read.
+std::string first_line(const std::string& s) { return s.substr(0, s.find('\n')); }
+
+struct Contents {
+  PolicyConfig config;
+  torch::serialize::InputArchive archive;
+};
+
+// Opens and checks the format tag and config of a checkpoint file.
+void open_checkpoint(const std::string& path, Contents& out) {
+  if (!std::filesystem::exists(path)) throw Error(path + ": no such checkpoint file");
+  try {
+    out.archive.load_from(path);
+  } catch (const c10::Error& e) {
+    throw Error(path + ": not a readable checkpoint (truncated or corrupt): " + first_line(e.what()));
+  }
+  c10::IValue format, version, config;
+  if (!out.archive.try_read("format", format) || !format.isString() || format.toStringRef() != kFormat)
+    throw Error(path + ": not a diffdagger policy checkpoint (missing field 'format')");
+  if (!out.archive.try_read("version", version) || !version.isInt() || version.toInt() != kVersion)
+    throw Error(path + ": unsupported checkpoint version (field 'version')");
+  if (!out.archive.try_read("config", config) || !config.isString())
+    throw Error(path + ": checkpoint has no field 'config'");
+  out.config = policy_config_from_json(config.toStringRef(), path + " (field 'config')");
+}
+
+void read_into(const std::string& path, Contents& c, DiffusionPolicy::Impl& impl) {
+  try {
+    torch::Tensor os, oo, as, ao;
+    c.archive.read("obs_scale", os);
+    c.archive.read("obs_offset", oo);
+    c.archive.read("act_scale", as);
+    c.archive.read("act_offset", ao);
+    if (os.numel() != c.config.obs_dim || oo.numel() != c.config.obs_dim || as.numel() != c.config.action_dim ||
+        ao.numel() != c.config.action_dim)
+      throw Error(path + ": normalizer sizes do not match the stored config (fields obs_scale/act_scale)");
+    torch::serialize::InputArchive model, ema;
+    c.archive.read("model", model);
+    c.archive.read("ema", ema);
+    impl.model->load(model);
+    impl.ema->load(ema);
+    impl.obs_norm = Normalizer::from_params(tensor_vec(os), tensor_vec(oo));
+    impl.act_norm = Normalizer::from_params(tensor_vec(as), tensor_vec(ao));
+  } catch (const c10::Error& e) {
+    throw Error(path + ": checkpoint weights are incomplete or do not fit the network: " + first_line(e.what()));
+  }
+  for (auto& p : impl.ema->parameters()) p.set_requires_grad(false);
+}
+
+}  // namespace
+
+void DiffusionPolicy::save(const std::string& path) const {
+  torch::serialize::OutputArchive archive;
+  archive.write("format", c10::IValue(std::string(kFormat)));
+  archive.write("version", c10::IValue(kVersion));
+  archive.write("config", c10::IValue(nlohmann::json(impl_->config).dump()));
+  archive.write("obs_scale", vec_tensor(impl_->obs_norm.scale()));
+  archive.write("obs_offset", vec_tensor(impl_->obs_norm.offset()));
+  archive.write("act_scale", vec_tensor(impl_->act_norm.scale()));
+  archive.write("act_offset", vec_tensor(impl_->act_norm.offset()));
+  torch::serialize::OutputArchive model, ema;
+  impl_->model->save(model);
+  impl_->ema->save(ema);
+  archive.write("model", model);
+  archive.write("ema", ema);
+
+  const std::string tmp = path + ".tmp";
+  try {
+    archive.save_to(tmp);
+  } catch (const c10::Error& e) {
+    std::error_code ec;
+    std::filesystem::remove(tmp, ec);
+    throw Error(path + ": could not write checkpoint: " + first_line(e.what()));
+  }
+  std::error_code ec;
+  std::filesystem::rename(tmp, path, ec);
+  if (ec) {
+    std::filesystem::remove(tmp, ec);
+    throw Error(path + ": could not move checkpoint into place: " + ec.message());
+  }
+}
+
+void DiffusionPolicy::load(const std::string& path) {
+  Contents c;
+  open_checkpoint(path, c);
+  const std::vector<std::string> diffs = config_differences(c.config, impl_->config);
+  if (!diffs.empty()) {
+    std::string msg = path + ": checkpoint does not match this policy's config (checkpoint vs policy):";
+    for (const auto& d : diffs) msg += "\n  " + d;
+    throw Error(msg);
+  }
+  read_into(path, c, *impl_);
+}
+
+std::unique_ptr<DiffusionPolicy> DiffusionPolicy::from_checkpoint(const std::string& path) {
+  Contents c;
+  open_checkpoint(path, c);
+  auto policy = std::make_unique<DiffusionPolicy>(c.config, 0);
+  read_into(path, c, policy->impl());
+  return policy;
+}
+
+}  // namespace dd

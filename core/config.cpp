@@ -1,0 +1,254 @@
+#include "core/config.h"
+
+#include <algorithm>
+#include <set>
+
+#include <nlohmann/json.hpp>
+
+namespace dd {
+namespace {
+
+using nlohmann::json;
+
+// Rejects keys of `j` that are not in `allowed`, naming the first unknown one.
+void require_known_keys(const json& j, const std::set<std::string>& allowed, const char* what) {
+  if (!j.is_object()) throw Error(std::string(what) + ": expected an object");
+  for (const auto& [key, value] : j.items()) {
+    if (!allowed.count(key)) {
+      std::string list;
+      for (const auto& a : allowed) list += (list.empty() ? "" : ", ") + a;
+      throw Error(std::string(what) + ": unknown key '" + key + "' (known: " + list + ")");
+    }
+  }
+}
+
+// Reads j[key] into out when present; a type mismatch names the key.
+template <typename T>
+void read(const json& j, const char* key, T& out, const char* what) {
+  auto it = j.find(key);
+  if (it == j.end()) return;
+  try {
+    out = it->template get<T>();
+  } catch (const json::exception& e) {
+    throw Error(std::string(what) + "." + key + ": " + e.what());
+  }
+}
+
+void check(bool ok, const std::string& field, const std::string& why) {
+  if (!ok) throw Error(field + ": " + why);
+}
+
+}  // namespace
+
+std::string to_string(PredictionType p) {
+  switch (p) {
+    case PredictionType::kEpsilon: return "epsilon";
+    case PredictionType::kSample: return "sample";
+    case PredictionType::kVelocity: return "v_prediction";
+  }
+  return "?";
+}
+
+std::string to_string(SamplerType s) { return s == SamplerType::kDdpm ? "ddpm" : "ddim"; }
+
+static PredictionType prediction_from_string(const std::string& s) {
+  if (s == "epsilon") return PredictionType::kEpsilon;
+  if (s == "sample") return PredictionType::kSample;
+  if (s == "v_prediction" || s == "v") return PredictionType::kVelocity;
+  throw Error("scheduler.prediction: '" + s + "' is not one of epsilon, sample, v_prediction");
+}
+
+static SamplerType sampler_from_string(const std::string& s) {
+  if (s == "ddpm") return SamplerType::kDdpm;
+  if (s == "ddim") return SamplerType::kDdim;
+  throw Error("scheduler.sampler: '" + s + "' is not one of ddpm, ddim");
+}
+
+UnetConfig unet_preset(const std::string& name) {
+  UnetConfig c;
+  if (name == "cpu" || name == "default") return c;
+  if (name == "tiny") {
+    c.down_dims = {16, 32, 64};
+    c.step_embed_dim = 32;
+    return c;
+  }
+  if (name == "medium") {
+    c.down_dims = {64, 128, 256};
+    c.step_embed_dim = 128;
+    return c;
+  }
+  if (name == "paper") {
+    c.down_dims = {256, 512, 1024};
+    c.step_embed_dim = 128;
+    return c;
+  }
+  throw Error("unet preset '" + name + "' is not one of tiny, cpu, medium, paper");
+}
+
+void PolicyConfig::validate() const {
+  check(obs_dim > 0, "obs_dim", "must be positive");
+  check(action_dim > 0, "action_dim", "must be positive");
+  check(horizon > 0, "horizon", "must be positive");
+  check(action_steps > 0 && action_steps <= horizon, "action_steps", "must be in [1, horizon]");
+  check(!unet.down_dims.empty(), "unet.down_dims", "must not be empty");
+  const int levels = static_cast<int>(unet.down_dims.size());
+  check(horizon % (1 << (levels - 1)) == 0, "horizon",
+        "must be divisible by 2^(levels-1) = " + std::to_string(1 << (levels - 1)));
+  for (int d : unet.down_dims) {
+    check(d > 0 && d % unet.n_groups == 0, "unet.down_dims",
+          "every entry must be a positive multiple of n_groups (" + std::to_string(unet.n_groups) + ")");
+  }
+  check(unet.kernel_size > 0 && unet.kernel_size % 2 == 1, "unet.kernel_size", "must be odd and positive");
+  check(unet.step_embed_dim > 0 && unet.step_embed_dim % 2 == 0, "unet.step_embed_dim",
+        "must be even and positive");
+  check(scheduler.num_train_timesteps >= 1 && scheduler.num_train_timesteps <= 1000,
+        "scheduler.num_train_timesteps", "must be in [1, 1000]");
+  check(scheduler.num_inference_steps >= 1 &&
+            scheduler.num_inference_steps <= scheduler.num_train_timesteps,
+        "scheduler.num_inference_steps", "must be in [1, num_train_timesteps]");
+}
+
+void TrainConfig::validate() const {
+  check(steps >= 0, "train.steps", "must be >= 0");
+  check(batch_size > 0, "train.batch_size", "must be positive");
+  check(lr > 0 && lr < 1, "train.lr", "must be in (0, 1)");
+  check(weight_decay >= 0, "train.weight_decay", "must be >= 0");
+  check(beta1 >= 0 && beta1 < 1, "train.beta1", "must be in [0, 1)");
+  check(beta2 >= 0 && beta2 < 1, "train.beta2", "must be in [0, 1)");
+  check(warmup_steps >= 0, "train.warmup_steps", "must be >= 0");
+  check(ema_max_decay >= 0 && ema_max_decay < 1, "train.ema_max_decay", "must be in [0, 1)");
+}
+
+void to_json(nlohmann::json& j, const UnetConfig& c) {
+  j = json{{"down_dims", c.down_dims},
+           {"kernel_size", c.kernel_size},
+           {"n_groups", c.n_groups},
+           {"step_embed_dim", c.step_embed_dim}};
+}
+
+void from_json(const nlohmann::json& j, UnetConfig& c) {
+  require_known_keys(j, {"down_dims", "kernel_size", "n_groups", "step_embed_dim"}, "unet");
+  read(j, "down_dims", c.down_dims, "unet");
+  read(j, "kernel_size", c.kernel_size, "unet");
+  read(j, "n_groups", c.n_groups, "unet");
+  read(j, "step_embed_dim", c.step_embed_dim, "unet");
+}
+
+void to_json(nlohmann::json& j, const SchedulerConfig& c) {
+  j = json{{"num_train_timesteps", c.num_train_timesteps},
+           {"num_inference_steps", c.num_inference_steps},
+           {"prediction", to_string(c.prediction)},
+           {"sampler", to_string(c.sampler)},
+           {"clip_sample", c.clip_sample}};
+}
+
+void from_json(const nlohmann::json& j, SchedulerConfig& c) {
+  require_known_keys(
+      j, {"num_train_timesteps", "num_inference_steps", "prediction", "sampler", "clip_sample"},
+      "scheduler");
+  read(j, "num_train_timesteps", c.num_train_timesteps, "scheduler");
+  read(j, "num_inference_steps", c.num_inference_steps, "scheduler");
+  std::string s;
+  if (j.contains("prediction")) {
+    read(j, "prediction", s, "scheduler");
+    c.prediction = prediction_from_string(s);
+  }
+  if (j.contains("sampler")) {
+    read(j, "sampler", s, "scheduler");
+    c.sampler = sampler_from_string(s);
+  }
+  read(j, "clip_sample", c.clip_sample, "scheduler");
+}
+
+void to_json(nlohmann::json& j, const PolicyConfig& c) {
+  j = json{{"obs_dim", c.obs_dim},         {"action_dim", c.action_dim},
+           {"horizon", c.horizon},         {"action_steps", c.action_steps},
+           {"unet", c.unet},               {"scheduler", c.scheduler}};
+}
+
+void from_json(const nlohmann::json& j, PolicyConfig& c) {
+  require_known_keys(j, {"obs_dim", "action_dim", "horizon", "action_steps", "unet", "scheduler"},
+                     "policy");
+  read(j, "obs_dim", c.obs_dim, "policy");
+  read(j, "action_dim", c.action_dim, "policy");
+  read(j, "horizon", c.horizon, "policy");
+  read(j, "action_steps", c.action_steps, "policy");
+  if (j.contains("unet")) from_json(j.at("unet"), c.unet);
+  if (j.contains("scheduler")) from_json(j.at("scheduler"), c.scheduler);
+}
+
+void to_json(nlohmann::json& j, const TrainConfig& c) {
+  j = json{{"steps", c.steps},
+           {"batch_size", c.batch_size},
+           {"lr", c.lr},
+           {"weight_decay", c.weight_decay},
+           {"beta1", c.beta1},
+           {"beta2", c.beta2},
+           {"warmup_steps", c.warmup_steps},
+           {"grad_clip", c.grad_clip},
+           {"ema_power", c.ema_power},
+           {"ema_max_decay", c.ema_max_decay},
+           {"seed", c.seed},
+           {"fit_normalizer", c.fit_normalizer}};
+}
+
+void from_json(const nlohmann::json& j, TrainConfig& c) {
+  require_known_keys(j,
+                     {"steps", "batch_size", "lr", "weight_decay", "beta1", "beta2", "warmup_steps",
+                      "grad_clip", "ema_power", "ema_max_decay", "seed", "fit_normalizer"},
+                     "train");
+  read(j, "steps", c.steps, "train");
+  read(j, "batch_size", c.batch_size, "train");
+  read(j, "lr", c.lr, "train");
+  read(j, "weight_decay", c.weight_decay, "train");
+  read(j, "beta1", c.beta1, "train");
+  read(j, "beta2", c.beta2, "train");
+  read(j, "warmup_steps", c.warmup_steps, "train");
+  read(j, "grad_clip", c.grad_clip, "train");
+  read(j, "ema_power", c.ema_power, "train");
+  read(j, "ema_max_decay", c.ema_max_decay, "train");
+  read(j, "seed", c.seed, "train");
+  read(j, "fit_normalizer", c.fit_normalizer, "train");
+}
+
+PolicyConfig policy_config_from_json(const std::string& text, const std::string& source) {
+  PolicyConfig c;
+  try {
+    from_json(json::parse(text), c);
+    c.validate();
+  } catch (const json::exception& e) {
+    throw Error(source + ": malformed JSON: " + e.what());
+  } catch (const Error& e) {
+    throw Error(source + ": " + e.what());
+  }
+  return c;
+}
+
+std::vector<std::string> config_differences(const PolicyConfig& a, const PolicyConfig& b) {
+  std::vector<std::string> out;
+  const json ja = a, jb = b;
+  const json patch = json::diff(ja, jb);
+  for (const auto& op : patch) {
+    const std::string path = op.at("path").get<std::string>();
+    // "/unet/down_dims/0" -> "unet.down_dims"; report each field once.
+    std::string field = path.substr(1);
+    std::replace(field.begin(), field.end(), '/', '.');
+    const json::json_pointer ptr(path);
+    std::string field_top = field;
+    const json::json_pointer parent = ptr.parent_pointer();
+    if (!parent.empty() && ja.at(parent).is_array()) {
+      field_top = parent.to_string().substr(1);
+      std::replace(field_top.begin(), field_top.end(), '/', '.');
+      const std::string line =
+          field_top + ": " + ja.at(parent).dump() + " vs " + jb.at(parent).dump();
+      if (std::find(out.begin(), out.end(), line) == out.end()) out.push_back(line);
+      continue;
+    }
+    const std::string va = ja.contains(ptr) ? ja.at(ptr).dump() : "(none)";
+    const std::string vb = jb.contains(ptr) ? jb.at(ptr).dump() : "(none)";
+    out.push_back(field + ": " + va + " vs " + vb);
+  }
+  return out;
+}
+
+}  // namespace dd

@@ -1,0 +1,39 @@
+// DiffusionPolicy's internals, shared by policy.cpp, trainer.cpp and checkpoint.cpp. Includes torch.
+#pragma once
+
+#include <torch/torch.h>
+
+#include "core/nn/scheduler.h"
+#include "core/nn/unet.h"
+#include "core/policy.h"
+
+namespace dd {
+
+struct DiffusionPolicy::Impl {
+  Impl(const PolicyConfig& c, uint64_t seed);
+
+  PolicyConfig config;
+  nn::ConditionalUnet1D model{nullptr};  // trained weights
+  // Exponential moving average of the weights, used for sampling and losses. Mutable: torch modules
+  // have no const forward, and inference does not change them.
+  mutable nn::ConditionalUnet1D ema{nullptr};
+  nn::NoiseScheduler scheduler;
+  Normalizer obs_norm, act_norm;
+
+  /// Copies the live weights into the EMA network.
+  void copy_model_to_ema();
+  /// Normalised observations as a (B, obs_dim) tensor.
+  torch::Tensor obs_tensor(const Mat& obs) const;
+  /// Normalised chunks: rows of (T_p * A) -> (B, T_p, A).
+  torch::Tensor chunk_tensor(const Mat& chunk_rows) const;
+  /// Expected loss for B pairs: obs (B, obs_dim) and chunks (B, T_p, A), both normalised -> (B).
+  torch::Tensor expected_loss(const torch::Tensor& obs, const torch::Tensor& chunks, int n_samples,
+                              torch::Generator& gen) const;
+  /// Reverse diffusion from noise for normalised obs (B, obs_dim) -> normalised chunks (B, T_p, A).
+  torch::Tensor sample(const torch::Tensor& obs, torch::Generator& gen) const;
+};
+
+/// A CPU generator seeded with `seed`.
+torch::Generator make_generator(uint64_t seed);
+
+}  // namespace dd

@@ -1,0 +1,121 @@
+#include "core/nn/scheduler.h"
+
+#include <cmath>
+
+namespace dd::nn {
+namespace {
+
+// The "squaredcos_cap_v2" schedule: abar(s) = cos^2(((s + 0.008) / 1.008) * pi / 2),
+// beta_i = min(1 - abar((i + 1) / T) / abar(i / T), 0.999).
+std::vector<double> cosine_betas(int steps) {
+  auto abar = [](double s) {
+    const double c = std::cos((s + 0.008) / 1.008 * M_PI / 2.0);
+    return c * c;
+  };
+  std::vector<double> betas(static_cast<size_t>(steps));
+  for (int i = 0; i < steps; ++i) {
+    const double t1 = static_cast<double>(i) / steps, t2 = static_cast<double>(i + 1) / steps;
+    betas[static_cast<size_t>(i)] = std::min(1.0 - abar(t2) / abar(t1), 0.999);
+  }
+  return betas;
+}
+
+}  // namespace
+
+NoiseScheduler::NoiseScheduler(const SchedulerConfig& config) : config_(config) {
+  const std::vector<double> betas = cosine_betas(config.num_train_timesteps);
+  abar_cpu_.resize(betas.size());
+  double prod = 1.0;
+  for (size_t i = 0; i < betas.size(); ++i) abar_cpu_[i] = prod *= (1.0 - betas[i]);
+  const auto f64 = torch::TensorOptions().dtype(torch::kFloat64);
+  betas_ = torch::tensor(betas, f64);
+  alphas_cumprod_ = torch::tensor(abar_cpu_, f64);
+  sqrt_abar_ = alphas_cumprod_.sqrt().to(torch::kFloat32);
+  sqrt_one_minus_abar_ = (1.0 - alphas_cumprod_).sqrt().to(torch::kFloat32);
+}
+
+std::pair<torch::Tensor, torch::Tensor> NoiseScheduler::coefficients(const torch::Tensor& t,
+                                                                     const torch::Tensor& x) const {
+  std::vector<int64_t> shape(static_cast<size_t>(x.dim()), 1);
+  shape[0] = t.size(0);
+  return {sqrt_abar_.index_select(0, t).view(shape), sqrt_one_minus_abar_.index_select(0, t).view(shape)};
+}
+
+torch::Tensor NoiseScheduler::add_noise(const torch::Tensor& x0, const torch::Tensor& eps,
+                                        const torch::Tensor& t) const {
+  auto [a, s] = coefficients(t, x0);
+  return a * x0 + s * eps;
+}
+
+torch::Tensor NoiseScheduler::velocity(const torch::Tensor& x0, const torch::Tensor& eps,
+                                       const torch::Tensor& t) const {
+  auto [a, s] = coefficients(t, x0);
+  return a * eps - s * x0;
+}
+
+torch::Tensor NoiseScheduler::target(const torch::Tensor& x0, const torch::Tensor& eps,
+                                     const torch::Tensor& t) const {
+  switch (config_.prediction) {
+    case PredictionType::kEpsilon: return eps;
+    case PredictionType::kSample: return x0;
+    case PredictionType::kVelocity: return velocity(x0, eps, t);
+  }
+  return {};
+}
+
+torch::Tensor NoiseScheduler::predicted_x0(const torch::Tensor& output, const torch::Tensor& x_t,
+                                           const torch::Tensor& t) const {
+  auto [a, s] = coefficients(t, x_t);
+  switch (config_.prediction) {
+    case PredictionType::kEpsilon: return (x_t - s * output) / a;
+    case PredictionType::kSample: return output;
+    case PredictionType::kVelocity: return a * x_t - s * output;
+  }
+  return {};
+}
+
+torch::Tensor NoiseScheduler::predicted_eps(const torch::Tensor& output, const torch::Tensor& x_t,
+                                            const torch::Tensor& t) const {
+  auto [a, s] = coefficients(t, x_t);
+  switch (config_.prediction) {
+    case PredictionType::kEpsilon: return output;
+    case PredictionType::kSample: return (x_t - a * output) / s;
+    case PredictionType::kVelocity: return s * x_t + a * output;
+  }
+  return {};
+}
+
+std::vector<int64_t> NoiseScheduler::inference_timesteps() const {
+  const int n = config_.num_inference_steps, T = config_.num_train_timesteps;
+  std::vector<int64_t> ts;
+  ts.reserve(static_cast<size_t>(n));
+  for (int i = n - 1; i >= 0; --i) ts.push_back(static_cast<int64_t>(i) * T / n);
+  return ts;
+}
+
+torch::Tensor NoiseScheduler::step(const torch::Tensor& output, int64_t t, const torch::Tensor& x_t,
+                                   torch::Generator& gen) const {
+  const int64_t prev = t - config_.num_train_timesteps / config_.num_inference_steps;
+  const double ab_t = abar(t), ab_prev = abar(prev);
+  const torch::Tensor tt = torch::full({x_t.size(0)}, t, torch::kInt64);
+  torch::Tensor x0 = predicted_x0(output, x_t, tt);
+  if (config_.clip_sample) x0 = x0.clamp(-1.0, 1.0);
+
+  if (config_.sampler == SamplerType::kDdim) {
+    // Deterministic DDIM (eta = 0); eps is re-derived from the clipped x0.
+    const torch::Tensor eps = (x_t - std::sqrt(ab_t) * x0) / std::sqrt(1.0 - ab_t);
+    return std::sqrt(ab_prev) * x0 + std::sqrt(1.0 - ab_prev) * eps;
+  }
+  // DDPM posterior q(x_prev | x_t, x0) with the "fixed small" variance.
+  const double alpha_t = ab_t / ab_prev, beta_t = 1.0 - alpha_t;
+  const double c_x0 = std::sqrt(ab_prev) * beta_t / (1.0 - ab_t);
+  const double c_xt = std::sqrt(alpha_t) * (1.0 - ab_prev) / (1.0 - ab_t);
+  torch::Tensor mean = c_x0 * x0 + c_xt * x_t;
+  if (t > 0) {
+    const double var = std::max((1.0 - ab_prev) / (1.0 - ab_t) * beta_t, 1e-20);
+    mean = mean + std::sqrt(var) * torch::randn(x_t.sizes(), gen, x_t.options());
+  }
+  return mean;
+}
+
+}  // namespace dd::nn

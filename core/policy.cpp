@@ -1,0 +1,178 @@
+#include "core/policy.h"
+
+#include <spdlog/spdlog.h>
+
+#include <algorithm>
+
+#include "core/chunks.h"
+#include "core/nn/policy_impl.h"
+
+namespace dd {
+namespace {
+
+// Rows per batched forward pass when scoring many pairs: large enough to keep oneDNN busy,
+// small enough to stay in cache-friendly sizes.
+constexpr int kRowsPerPass = 2048;
+
+torch::Tensor to_tensor(const Mat& m) {
+  return torch::from_blob(const_cast<float*>(m.data()), {m.rows(), m.cols()}, torch::kFloat32).clone();
+}
+
+Mat to_mat(const torch::Tensor& t) {
+  const torch::Tensor c = t.contiguous().to(torch::kFloat32);
+  return Eigen::Map<const Mat>(c.data_ptr<float>(), c.size(0), c.numel() / std::max<int64_t>(c.size(0), 1));
+}
+
+std::string join(const std::vector<int>& v) {
+  std::string s;
+  for (int x : v) s += (s.empty() ? "" : ",") + std::to_string(x);
+  return s;
+}
+
+}  // namespace
+
+torch::Generator make_generator(uint64_t seed) { return at::detail::createCPUGenerator(seed); }
+
+DiffusionPolicy::Impl::Impl(const PolicyConfig& c, uint64_t seed)
+    : config(c), scheduler(c.scheduler), obs_norm(c.obs_dim), act_norm(c.action_dim) {
+  torch::manual_seed(seed);  // parameter initialisation draws from the global generator
+  model = nn::ConditionalUnet1D(c.action_dim, c.obs_dim, c.unet);
+  ema = nn::ConditionalUnet1D(c.action_dim, c.obs_dim, c.unet);
+  for (auto& p : ema->parameters()) p.set_requires_grad(false);
+  copy_model_to_ema();
+}
+
+void DiffusionPolicy::Impl::copy_model_to_ema() {
+  torch::NoGradGuard no_grad;
+  auto src = model->parameters();
+  auto dst = ema->parameters();
+  for (size_t i = 0; i < src.size(); ++i) dst[i].copy_(src[i]);
+}
+
+torch::Tensor DiffusionPolicy::Impl::obs_tensor(const Mat& obs) const {
+  if (obs.cols() != config.obs_dim)
+    throw Error("policy: observation has " + std::to_string(obs.cols()) + " features, config.obs_dim is " +
+                std::to_string(config.obs_dim));
+  return to_tensor(obs_norm.normalize(obs));
+}
+
+torch::Tensor DiffusionPolicy::Impl::chunk_tensor(const Mat& chunk_rows) const {
+  const int A = config.action_dim, T = config.horizon;
+  if (chunk_rows.cols() != T * A)
+    throw Error("policy: action chunk has " + std::to_string(chunk_rows.cols()) + " values, expected horizon*action_dim = " +
+                std::to_string(T * A));
+  const Mat steps = Eigen::Map<const Mat>(chunk_rows.data(), chunk_rows.rows() * T, A);
+  return to_tensor(act_norm.normalize(steps)).view({chunk_rows.rows(), T, A});
+}
+
+torch::Tensor DiffusionPolicy::Impl::expected_loss(const torch::Tensor& obs, const torch::Tensor& chunks,
+                                                   int n_samples, torch::Generator& gen) const {
+  torch::NoGradGuard no_grad;
+  const int64_t B = obs.size(0), n = n_samples, T = config.scheduler.num_train_timesteps;
+  // Condition each (pair, timestep) once: B * T rows instead of B * n.
+  const torch::Tensor t_distinct = torch::arange(T, torch::kInt64).repeat({B});
+  const torch::Tensor obs_distinct = obs.repeat_interleave(T, 0);
+  const std::vector<torch::Tensor> films = ema->film(ema->condition(t_distinct, obs_distinct));
+  // Row (p, i) has timestep i mod T and uses conditioning row p * T + (i mod T).
+  const torch::Tensor t_rows = (torch::arange(n, torch::kInt64) % T).repeat({B});
+  const torch::Tensor cond_rows = torch::arange(B, torch::kInt64).repeat_interleave(n) * T + t_rows;
+  std::vector<torch::Tensor> row_films;
+  row_films.reserve(films.size());
+  for (const auto& f : films) row_films.push_back(f.index_select(0, cond_rows));
+
+  const torch::Tensor x0 = chunks.repeat_interleave(n, 0);
+  const torch::Tensor eps = torch::randn(x0.sizes(), gen, x0.options());
+  const torch::Tensor x_t = scheduler.add_noise(x0, eps, t_rows);
+  const torch::Tensor pred = ema->denoise(x_t, row_films);
+  return (pred - scheduler.target(x0, eps, t_rows)).pow(2).reshape({B, -1}).mean(1);
+}
+
+torch::Tensor DiffusionPolicy::Impl::sample(const torch::Tensor& obs, torch::Generator& gen) const {
+  torch::NoGradGuard no_grad;
+  const int64_t B = obs.size(0);
+  torch::Tensor x = torch::randn({B, config.horizon, config.action_dim}, gen, torch::kFloat32);
+  for (const int64_t t : scheduler.inference_timesteps()) {
+    const torch::Tensor out = ema->forward(x, torch::full({B}, t, torch::kInt64), obs);
+    x = scheduler.step(out, t, x, gen);
+  }
+  return x.clamp(-1.0, 1.0);
+}
+
+DiffusionPolicy::DiffusionPolicy(const PolicyConfig& config, uint64_t seed) {
+  config.validate();
+  impl_ = std::make_unique<Impl>(config, seed);
+  spdlog::info("policy: ConditionalUnet1D down_dims [{}], kernel {}, step embedding {}, T_p {}, T_d {}: {} parameters",
+               join(config.unet.down_dims), config.unet.kernel_size, config.unet.step_embed_dim, config.horizon,
+               config.scheduler.num_train_timesteps, num_parameters());
+}
+
+DiffusionPolicy::~DiffusionPolicy() = default;
+
+const PolicyConfig& DiffusionPolicy::config() const { return impl_->config; }
+
+int64_t DiffusionPolicy::num_parameters() const {
+  int64_t n = 0;
+  for (const auto& p : impl_->model->parameters()) n += p.numel();
+  return n;
+}
+
+const Normalizer& DiffusionPolicy::obs_normalizer() const { return impl_->obs_norm; }
+const Normalizer& DiffusionPolicy::action_normalizer() const { return impl_->act_norm; }
+
+void DiffusionPolicy::set_normalizers(Normalizer obs, Normalizer action) {
+  if (obs.dim() != impl_->config.obs_dim || action.dim() != impl_->config.action_dim)
+    throw Error("policy: normalizer sizes (" + std::to_string(obs.dim()) + ", " + std::to_string(action.dim()) +
+                ") do not match obs_dim and action_dim");
+  impl_->obs_norm = std::move(obs);
+  impl_->act_norm = std::move(action);
+}
+
+std::vector<Mat> DiffusionPolicy::sample_batch(const Mat& obs, uint64_t seed) const {
+  torch::Generator gen = make_generator(seed);
+  const torch::Tensor x = impl_->sample(impl_->obs_tensor(obs), gen);
+  std::vector<Mat> out;
+  out.reserve(static_cast<size_t>(obs.rows()));
+  for (int64_t b = 0; b < x.size(0); ++b) out.push_back(impl_->act_norm.unnormalize(to_mat(x[b])));
+  return out;
+}
+
+Mat DiffusionPolicy::sample(const Vec& obs, uint64_t seed) const {
+  return sample_batch(obs.transpose(), seed).front();
+}
+
+float DiffusionPolicy::expected_loss(const Vec& obs, const Mat& chunk, uint64_t seed, int n_samples) const {
+  torch::Generator gen = make_generator(seed);
+  const Mat row = Eigen::Map<const Mat>(chunk.data(), 1, chunk.size());
+  return impl_->expected_loss(impl_->obs_tensor(obs.transpose()), impl_->chunk_tensor(row), n_samples, gen)
+      .item<float>();
+}
+
+std::vector<float> DiffusionPolicy::expected_losses(const ChunkDataset& data, uint64_t seed, int n_samples,
+                                                    const ProgressFn& progress) const {
+  torch::Generator gen = make_generator(seed);
+  const torch::Tensor obs = impl_->obs_tensor(data.obs);
+  const torch::Tensor chunks = impl_->chunk_tensor(data.chunks);
+  const int64_t per_pass = std::max<int64_t>(1, kRowsPerPass / n_samples);
+  std::vector<float> out;
+  out.reserve(static_cast<size_t>(data.size()));
+  for (int64_t start = 0; start < data.size(); start += per_pass) {
+    const int64_t len = std::min<int64_t>(per_pass, data.size() - start);
+    const torch::Tensor l = impl_->expected_loss(obs.narrow(0, start, len), chunks.narrow(0, start, len), n_samples, gen);
+    const float* p = l.data_ptr<float>();
+    out.insert(out.end(), p, p + len);
+    if (progress) progress(static_cast<int>(start + len), data.size(), out.back());
+  }
+  return out;
+}
+
+Decision DiffusionPolicy::decide(const Vec& obs, uint64_t seed, int n_samples) const {
+  torch::Generator gen = make_generator(seed);
+  const torch::Tensor o = impl_->obs_tensor(obs.transpose());
+  const torch::Tensor x = impl_->sample(o, gen);
+  Decision d;
+  d.loss = impl_->expected_loss(o, x, n_samples, gen).item<float>();
+  d.chunk = impl_->act_norm.unnormalize(to_mat(x[0]));
+  return d;
+}
+
+}  // namespace dd

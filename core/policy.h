@@ -1,0 +1,84 @@
+// The diffusion policy: network, noise schedule and normalisers behind a torch-free interface.
+//
+// Observations and actions go in and come out in raw units; the policy normalises internally.
+// Sampling and the expected loss use the EMA weights; training updates the live weights and the EMA.
+//
+//   DiffusionPolicy policy(config, /*seed=*/0);
+//   train(policy, data, train_config);                  // core/trainer.h
+//   Mat chunk = policy.sample(obs, seed);               // (T_p x A), raw units
+//   float loss = policy.expected_loss(obs, chunk, seed) // eq. 2 over N_b (noise, timestep) pairs
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "core/config.h"
+#include "core/normalizer.h"
+#include "core/progress.h"
+#include "core/types.h"
+
+namespace dd {
+
+struct ChunkDataset;
+
+/// Default N_b: (noise, timestep) samples per expected loss.
+constexpr int kDefaultLossSamples = 512;
+
+/// One control decision: the generated chunk and its expected diffusion loss.
+struct Decision {
+  Mat chunk;         // T_p x action_dim, raw units
+  float loss = 0.f;  // expected diffusion loss of (obs, chunk)
+};
+
+class DiffusionPolicy {
+ public:
+  /// Builds a freshly initialised network (weights drawn from `seed`) and logs its parameter count.
+  /// Throws Error naming the field if the config is invalid.
+  DiffusionPolicy(const PolicyConfig& config, uint64_t seed);
+  ~DiffusionPolicy();
+  DiffusionPolicy(const DiffusionPolicy&) = delete;
+  DiffusionPolicy& operator=(const DiffusionPolicy&) = delete;
+
+  const PolicyConfig& config() const;
+  int64_t num_parameters() const;
+  const Normalizer& obs_normalizer() const;
+  const Normalizer& action_normalizer() const;
+  /// Sets both normalisers (sizes must match obs_dim and action_dim).
+  void set_normalizers(Normalizer obs, Normalizer action);
+
+  /// Generates one action chunk for `obs` (obs_dim) -> (T_p x action_dim), raw units.
+  Mat sample(const Vec& obs, uint64_t seed) const;
+  /// Generates one chunk per row of `obs` (B x obs_dim) -> B chunks.
+  std::vector<Mat> sample_batch(const Mat& obs, uint64_t seed) const;
+
+  /// Expected diffusion loss (eq. 2) of (obs, chunk): mean over n_samples rows of fresh noise with
+  /// timesteps stratified as i mod T_d, in one batched forward pass.
+  float expected_loss(const Vec& obs, const Mat& chunk, uint64_t seed,
+                      int n_samples = kDefaultLossSamples) const;
+  /// Expected loss of every pair of a data set (for threshold calibration), with progress.
+  std::vector<float> expected_losses(const ChunkDataset& data, uint64_t seed,
+                                     int n_samples = kDefaultLossSamples,
+                                     const ProgressFn& progress = {}) const;
+  /// Sampling plus expected loss of the sampled chunk: what the robot does at every decision.
+  Decision decide(const Vec& obs, uint64_t seed, int n_samples = kDefaultLossSamples) const;
+
+  /// Writes config, normalisers, weights and EMA weights to one file (atomically: temp file + rename).
+  /// Throws Error naming the file on failure; an existing checkpoint is left intact.
+  void save(const std::string& path) const;
+  /// Loads a checkpoint into this policy. Throws Error naming the file and every config field that
+  /// differs, or the file as truncated / corrupt.
+  void load(const std::string& path);
+  /// Builds a policy from a checkpoint's own config.
+  static std::unique_ptr<DiffusionPolicy> from_checkpoint(const std::string& path);
+
+  struct Impl;
+  Impl& impl() { return *impl_; }
+  const Impl& impl() const { return *impl_; }
+
+ private:
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace dd

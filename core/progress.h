@@ -1,0 +1,46 @@
+// Progress reporting for long work (training, calibration, evaluation).
+//
+// On a terminal it redraws one line with a bar, the step count, a value (the loss) and the time
+// left; when the output is a pipe or a file it prints a plain line every few seconds instead.
+// Hand-written: Debian 12 packages no C++ progress-bar library.
+#pragma once
+
+#include <chrono>
+#include <cstdio>
+#include <functional>
+#include <string>
+
+namespace dd {
+
+/// Called with (done, total, value) as work advances; value is e.g. the running loss.
+using ProgressFn = std::function<void(int done, int total, double value)>;
+
+class ProgressBar {
+ public:
+  /// `label` starts the line; `value_name` names the value (e.g. "loss"); output goes to `out`.
+  ProgressBar(std::string label, std::string value_name, std::FILE* out = stderr);
+  ~ProgressBar();
+
+  /// Records progress; redraws at most ~10 times a second on a terminal, every 5 s otherwise.
+  void update(int done, int total, double value);
+  /// Prints the final state and a newline (once).
+  void finish();
+  /// A ProgressFn that forwards to this bar.
+  ProgressFn fn();
+
+ private:
+  void draw(bool final);
+
+  std::string label_, value_name_;
+  std::FILE* out_;
+  bool tty_;
+  bool finished_ = false;
+  int done_ = 0, total_ = 0;
+  double value_ = 0.0;
+  std::chrono::steady_clock::time_point start_, last_draw_;
+};
+
+/// Formats seconds as "1m05s" / "12.3s".
+std::string format_duration(double seconds);
+
+}  // namespace dd

@@ -1,0 +1,121 @@
+// Checkpoints: a round trip reproduces samples exactly; mismatched, truncated, missing and foreign
+// files are rejected with a message that names the file and what is wrong.
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+
+#include "core/chunks.h"
+#include "core/policy.h"
+#include "core/synthetic.h"
+#include "core/trainer.h"
+
+namespace dd {
+namespace {
+
+namespace fs = std::filesystem;
+
+PolicyConfig tiny_config() {
+  PolicyConfig c;
+  c.obs_dim = 3;
+  c.action_dim = 2;
+  c.horizon = 8;
+  c.unet = unet_preset("tiny");
+  return c;
+}
+
+class Checkpoint : public testing::Test {
+ protected:
+  void SetUp() override {
+    dir_ = fs::temp_directory_path() / ("dd_ckpt_" + std::to_string(::getpid()));
+    fs::create_directories(dir_);
+    path_ = (dir_ / "policy.pt").string();
+  }
+  void TearDown() override { fs::remove_all(dir_); }
+
+  // A policy whose live and EMA weights differ and whose normalisers are fitted.
+  static std::unique_ptr<DiffusionPolicy> trained() {
+    auto p = std::make_unique<DiffusionPolicy>(tiny_config(), 1);
+    TrainConfig t;
+    t.steps = 20;
+    t.batch_size = 32;
+    train(*p, ChunkDataset::from_episodes(bimodal_episodes(6, 10, 3, 2, 4), 8), t);
+    return p;
+  }
+
+  static std::string message_of(const std::function<void()>& f) {
+    try {
+      f();
+    } catch (const Error& e) {
+      return e.what();
+    }
+    return "(no error)";
+  }
+
+  fs::path dir_;
+  std::string path_;
+};
+
+}  // namespace
+
+TEST_F(Checkpoint, RoundTripGivesIdenticalSamples) {
+  const auto original = trained();
+  original->save(path_);
+  const auto loaded = DiffusionPolicy::from_checkpoint(path_);
+  const Vec obs = Vec::LinSpaced(3, -0.5f, 0.5f);
+  EXPECT_EQ(original->sample(obs, 42), loaded->sample(obs, 42));
+  EXPECT_EQ(original->expected_loss(obs, original->sample(obs, 1), 3),
+            loaded->expected_loss(obs, original->sample(obs, 1), 3));
+  EXPECT_EQ(original->action_normalizer().scale(), loaded->action_normalizer().scale());
+
+  DiffusionPolicy into(tiny_config(), 99);  // different initial weights
+  into.load(path_);
+  EXPECT_EQ(original->sample(obs, 7), into.sample(obs, 7));
+}
+
+TEST_F(Checkpoint, MismatchedConfigNamesFileAndFields) {
+  trained()->save(path_);
+  PolicyConfig other = tiny_config();
+  other.unet.down_dims = {16, 32};
+  other.obs_dim = 5;
+  DiffusionPolicy wrong(other, 0);
+  const std::string m = message_of([&] { wrong.load(path_); });
+  EXPECT_NE(m.find(path_), std::string::npos) << m;
+  EXPECT_NE(m.find("unet.down_dims"), std::string::npos) << m;
+  EXPECT_NE(m.find("obs_dim"), std::string::npos) << m;
+}
+
+TEST_F(Checkpoint, TruncatedFileIsRejected) {
+  trained()->save(path_);
+  const auto size = fs::file_size(path_);
+  const std::string cut = (dir_ / "cut.pt").string();
+  fs::copy_file(path_, cut);
+  fs::resize_file(cut, size / 2);
+  const std::string m = message_of([&] { DiffusionPolicy::from_checkpoint(cut); });
+  EXPECT_NE(m.find(cut), std::string::npos) << m;
+  EXPECT_NE(m.find("truncated or corrupt"), std::string::npos) << m;
+}
+
+TEST_F(Checkpoint, MissingAndForeignFilesAreRejected) {
+  const std::string missing = (dir_ / "nope.pt").string();
+  const std::string m = message_of([&] { DiffusionPolicy::from_checkpoint(missing); });
+  EXPECT_NE(m.find(missing), std::string::npos) << m;
+  EXPECT_NE(m.find("no such"), std::string::npos) << m;
+
+  const std::string text = (dir_ / "notes.txt").string();
+  std::ofstream(text) << "not a checkpoint\n";
+  EXPECT_NE(message_of([&] { DiffusionPolicy::from_checkpoint(text); }).find(text), std::string::npos);
+}
+
+TEST_F(Checkpoint, FailedSaveLeavesTheOldFileIntact) {
+  const auto p = trained();
+  p->save(path_);
+  const auto before = fs::file_size(path_);
+  const std::string bad = (dir_ / "no_such_dir" / "policy.pt").string();
+  const std::string m = message_of([&] { p->save(bad); });
+  EXPECT_NE(m.find(bad), std::string::npos) << m;
+  EXPECT_EQ(fs::file_size(path_), before);
+  EXPECT_NO_THROW(DiffusionPolicy::from_checkpoint(path_));
+}
+
+}  // namespace dd

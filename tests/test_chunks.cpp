@@ -1,0 +1,57 @@
+// Training pairs from episodes, and min-max normalisation.
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "core/chunks.h"
+#include "core/config.h"
+#include "core/normalizer.h"
+
+namespace dd {
+
+TEST(ChunkDataset, OnePairPerStepPaddedWithTheLastAction) {
+  Episode ep;
+  ep.obs = Mat(3, 1);
+  ep.obs << 10, 11, 12;
+  ep.actions = Mat(3, 2);
+  ep.actions << 1, -1, 2, -2, 3, -3;
+  const ChunkDataset d = ChunkDataset::from_episodes({ep}, 4);
+  ASSERT_EQ(d.size(), 3);
+  EXPECT_EQ(d.obs(1, 0), 11);
+  Mat expected(4, 2);
+  expected << 2, -2, 3, -3, 3, -3, 3, -3;  // from step 1: actions 1, 2, then padding
+  EXPECT_EQ(d.chunk(1), expected);
+  EXPECT_EQ(d.chunk(2).row(0), ep.actions.row(2));
+  EXPECT_EQ(d.action_rows().rows(), 12);
+}
+
+TEST(ChunkDataset, RejectsInconsistentEpisodes) {
+  Episode a{Mat::Zero(3, 2), Mat::Zero(3, 1)};
+  Episode b{Mat::Zero(3, 2), Mat::Zero(2, 1)};
+  EXPECT_THROW(ChunkDataset::from_episodes({a, b}, 4), Error);
+  Episode c{Mat::Zero(3, 2), Mat::Zero(3, 1)};
+  c.actions(1, 0) = NAN;
+  EXPECT_THROW(ChunkDataset::from_episodes({c}, 4), Error);
+  EXPECT_THROW(ChunkDataset::from_episodes({}, 4), Error);
+}
+
+TEST(Normalizer, MapsRangeToMinusOneOneAndBack) {
+  Mat x(3, 2);
+  x << 0, 5, 10, 5, 5, 5;  // dim 1 is constant
+  const Normalizer n = Normalizer::fit(x);
+  const Mat y = n.normalize(x);
+  EXPECT_FLOAT_EQ(y(0, 0), -1);
+  EXPECT_FLOAT_EQ(y(1, 0), 1);
+  EXPECT_FLOAT_EQ(y(2, 0), 0);
+  for (int i = 0; i < 3; ++i) EXPECT_FLOAT_EQ(y(i, 1), 0);  // constant -> 0
+  EXPECT_TRUE(n.unnormalize(y).isApprox(x, 1e-6f));
+}
+
+TEST(Normalizer, RejectsEmptyAndNonFinite) {
+  EXPECT_THROW(Normalizer::fit(Mat(0, 2)), Error);
+  Mat x = Mat::Zero(2, 2);
+  x(0, 0) = INFINITY;
+  EXPECT_THROW(Normalizer::fit(x), Error);
+}
+
+}  // namespace dd

@@ -1,0 +1,137 @@
+// Learning behaviour of the diffusion policy on a synthetic bimodal data set: the loss falls, both
+// modes are sampled, and the expected loss separates training pairs from out-of-distribution ones.
+// Small network, fixed seeds, a short budget: properties are checked, never exact floats.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <memory>
+
+#include "core/chunks.h"
+#include "core/gate.h"
+#include "core/policy.h"
+#include "core/synthetic.h"
+#include "core/trainer.h"
+
+namespace dd {
+namespace {
+
+PolicyConfig small_config() {
+  PolicyConfig c;
+  c.obs_dim = 2;
+  c.action_dim = 2;
+  c.horizon = 8;
+  c.action_steps = 4;
+  c.unet = unet_preset("tiny");
+  return c;
+}
+
+class BimodalPolicy : public testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    data_ = new ChunkDataset(ChunkDataset::from_episodes(bimodal_episodes(80, 12, 2, 2, /*seed=*/7), 8));
+    policy_ = new DiffusionPolicy(small_config(), /*seed=*/3);
+    TrainConfig t;
+    t.steps = 500;
+    t.batch_size = 128;
+    t.lr = 1e-3;
+    t.warmup_steps = 25;
+    t.seed = 11;
+    stats_ = new TrainStats(train(*policy_, *data_, t));
+  }
+  static void TearDownTestSuite() {
+    delete policy_;
+    delete data_;
+    delete stats_;
+  }
+  static DiffusionPolicy* policy_;
+  static ChunkDataset* data_;
+  static TrainStats* stats_;
+};
+
+DiffusionPolicy* BimodalPolicy::policy_ = nullptr;
+ChunkDataset* BimodalPolicy::data_ = nullptr;
+TrainStats* BimodalPolicy::stats_ = nullptr;
+
+}  // namespace
+
+TEST_F(BimodalPolicy, TrainingLossFalls) {
+  ASSERT_EQ(stats_->losses.size(), 500u);
+  EXPECT_LT(stats_->last_mean(50), 0.5 * stats_->first_mean(50))
+      << "first " << stats_->first_mean(50) << " last " << stats_->last_mean(50);
+}
+
+TEST_F(BimodalPolicy, SamplesBothModesAndSeldomBetween) {
+  const Vec obs = data_->obs.row(0).transpose();
+  const Mat many = obs.transpose().replicate(200, 1);
+  const std::vector<Mat> chunks = policy_->sample_batch(many, /*seed=*/5);
+  int plus = 0, minus = 0, between = 0;
+  for (const Mat& c : chunks) {
+    const int m = bimodal_mode(c);
+    (m > 0 ? plus : m < 0 ? minus : between)++;
+  }
+  EXPECT_GE(plus, 40) << "plus " << plus << " minus " << minus << " between " << between;
+  EXPECT_GE(minus, 40) << "plus " << plus << " minus " << minus << " between " << between;
+  EXPECT_LE(between, 20) << "plus " << plus << " minus " << minus << " between " << between;
+}
+
+TEST_F(BimodalPolicy, ExpectedLossOfTrainingPairsIsBelowOutOfDistribution) {
+  int separated = 0;
+  const int n = 100;
+  for (int i = 0; i < n; ++i) {
+    const Vec obs = data_->obs.row(i * 7).transpose();
+    const Mat chunk = data_->chunk(i * 7);
+    const Mat far = chunk.array() + 3.0f;  // well outside the action range seen in training
+    const float in = policy_->expected_loss(obs, chunk, /*seed=*/i);
+    const float out = policy_->expected_loss(obs, far, /*seed=*/i);
+    separated += in < out;
+  }
+  EXPECT_GE(separated, 95);
+}
+
+TEST_F(BimodalPolicy, ExpectedLossIsSeededAndStable) {
+  const Vec obs = data_->obs.row(3).transpose();
+  const Mat chunk = data_->chunk(3);
+  EXPECT_EQ(policy_->expected_loss(obs, chunk, 1), policy_->expected_loss(obs, chunk, 1));
+  // Different noise draws over N_b = 512 give close estimates.
+  const float a = policy_->expected_loss(obs, chunk, 1), b = policy_->expected_loss(obs, chunk, 2);
+  EXPECT_LT(std::abs(a - b), 0.5f * std::max(a, b));
+}
+
+TEST_F(BimodalPolicy, BatchedLossesMatchOneByOne) {
+  ChunkDataset few = *data_;
+  few.obs = data_->obs.topRows(10);
+  few.chunks = data_->chunks.topRows(10);
+  const std::vector<float> batched = policy_->expected_losses(few, 4, 64);
+  ASSERT_EQ(batched.size(), 10u);
+  for (int i = 0; i < 10; ++i) {
+    const float single = policy_->expected_loss(few.obs.row(i).transpose(), few.chunk(i), 9, 512);
+    EXPECT_NEAR(batched[static_cast<size_t>(i)], single, 0.5f * std::max(single, 0.02f)) << i;
+  }
+}
+
+TEST_F(BimodalPolicy, CalibratedGateFlagsOutOfDistributionChunks) {
+  const std::vector<float> losses = policy_->expected_losses(*data_, /*seed=*/21, 128);
+  const float threshold = quantile(losses, 0.99);
+  QueryGate gate(threshold, 1);
+  int queried_ood = 0, queried_id = 0;
+  for (int i = 0; i < 40; ++i) {
+    const Vec obs = data_->obs.row(i * 11).transpose();
+    gate.reset();
+    queried_ood += gate.observe(policy_->expected_loss(obs, Mat(data_->chunk(i * 11).array() - 3.0f), i)).query;
+    gate.reset();
+    queried_id += gate.observe(policy_->expected_loss(obs, data_->chunk(i * 11), i)).query;
+  }
+  EXPECT_GE(queried_ood, 38);
+  EXPECT_LE(queried_id, 4);
+}
+
+TEST_F(BimodalPolicy, DecisionGivesAChunkInRangeAndAFiniteLoss) {
+  const Decision d = policy_->decide(data_->obs.row(0).transpose(), 2);
+  EXPECT_EQ(d.chunk.rows(), 8);
+  EXPECT_EQ(d.chunk.cols(), 2);
+  EXPECT_TRUE(std::isfinite(d.loss));
+  EXPECT_NE(bimodal_mode(d.chunk), 0);
+  EXPECT_THROW(policy_->sample(Vec::Zero(5), 0), Error);  // wrong observation size
+}
+
+}  // namespace dd
