@@ -2,6 +2,7 @@
 // decay, gradient clipping, and an EMA of the weights that sampling uses.
 #pragma once
 
+#include <memory>
 #include <vector>
 
 #include "core/config.h"
@@ -19,6 +20,26 @@ struct TrainStats {
   /// Mean loss over the first / last `window` steps (for "loss falls" checks and reports).
   double first_mean(int window = 50) const;
   double last_mean(int window = 50) const;
+};
+
+/// A training run over one data set, one gradient step at a time (for benchmarks and for callers that
+/// interleave training with other work). Construction refits the normalisers when asked and builds
+/// the optimiser; the EMA restarts from the live weights.
+class Trainer {
+ public:
+  Trainer(DiffusionPolicy& policy, const ChunkDataset& data, const TrainConfig& config);
+  ~Trainer();
+  Trainer(const Trainer&) = delete;
+  Trainer& operator=(const Trainer&) = delete;
+
+  /// One gradient step (minibatch, loss, AdamW, EMA update); returns the loss. Throws Error if the loss
+  /// is not finite.
+  float step();
+  int steps_done() const;
+
+ private:
+  struct State;
+  std::unique_ptr<State> state_;
 };
 
 /// Trains `policy` in place, continuing from its current weights with a fresh optimiser.

@@ -1,0 +1,18 @@
+// The diffdagger subcommands. Each registers its options on the CLI app and returns the function that
+// runs it; main() calls the one that was chosen. A command returns the process exit code.
+#pragma once
+
+#include <functional>
+
+#include <CLI/CLI.hpp>
+
+namespace dd::app {
+
+using Command = std::function<int()>;
+
+/// `bimodal`: train a small policy on a synthetic two-mode data set, sample it, score it, save it.
+Command add_bimodal(CLI::App& app);
+/// `inspect`: print a checkpoint's config, parameter count and normalisers.
+Command add_inspect(CLI::App& app);
+
+}  // namespace dd::app

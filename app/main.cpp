@@ -1,0 +1,39 @@
+// diffdagger: robot-gated interactive imitation learning with diffusion policies.
+#include <spdlog/spdlog.h>
+
+#include <map>
+
+#include "app/commands.h"
+#include "core/config.h"
+#include "core/runtime.h"
+
+int main(int argc, char** argv) {
+  CLI::App app{"diffdagger: teach a robot by correcting it (Diff-DAgger and its baselines)"};
+  app.require_subcommand(1);
+  int threads = 0;
+  bool verbose = false;
+  app.add_option("--threads", threads, "libtorch threads (default: $DD_THREADS or 2)");
+  app.add_flag("-v,--verbose", verbose, "debug logging");
+
+  std::map<CLI::App*, dd::app::Command> commands;
+  auto add = [&](auto fn) {
+    const size_t before = app.get_subcommands({}).size();
+    dd::app::Command c = fn(app);
+    commands[app.get_subcommands({})[before]] = std::move(c);
+  };
+  add(dd::app::add_bimodal);
+  add(dd::app::add_inspect);
+
+  CLI11_PARSE(app, argc, argv);
+  spdlog::set_level(verbose ? spdlog::level::debug : spdlog::level::info);
+  spdlog::set_pattern("%^[%L]%$ %v");
+  dd::set_num_threads(threads);
+  try {
+    for (auto& [sub, run] : commands)
+      if (sub->parsed()) return run();
+  } catch (const dd::Error& e) {
+    spdlog::error("{}", e.what());
+    return 1;
+  }
+  return 2;
+}

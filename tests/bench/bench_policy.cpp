@@ -1,0 +1,99 @@
+// Speed of the diffusion policy's hot paths, for the paper's reference size (down_dims 64,128,256,
+// observation dim 20, action dim 10, T_p 16, T_d 16) and for the CPU default (down_dims 32,64,128):
+//   TrainStep     one gradient step at batch 256
+//   Sample        one 16-step DDPM sampling at batch 1
+//   ExpectedLoss  one expected loss at N_b = 512
+//   Decision      sampling plus expected loss: what every control decision costs
+// libtorch runs with 2 intra-op threads (or $DD_THREADS).
+#include <benchmark/benchmark.h>
+#include <spdlog/spdlog.h>
+
+#include <memory>
+
+#include "core/chunks.h"
+#include "core/policy.h"
+#include "core/runtime.h"
+#include "core/synthetic.h"
+#include "core/trainer.h"
+
+namespace dd {
+namespace {
+
+PolicyConfig bench_config(std::vector<int> down_dims, int step_embed) {
+  PolicyConfig c;
+  c.obs_dim = 20;
+  c.action_dim = 10;
+  c.horizon = 16;
+  c.action_steps = 8;
+  c.unet.down_dims = std::move(down_dims);
+  c.unet.step_embed_dim = step_embed;
+  c.scheduler.num_train_timesteps = 16;
+  c.scheduler.num_inference_steps = 16;
+  return c;
+}
+
+const ChunkDataset& bench_data() {
+  static const ChunkDataset d = ChunkDataset::from_episodes(bimodal_episodes(40, 50, 20, 10, 1), 16);
+  return d;
+}
+
+void TrainStep(benchmark::State& state, const PolicyConfig& config) {
+  DiffusionPolicy policy(config, 0);
+  TrainConfig t;
+  t.batch_size = 256;
+  t.steps = 1000000;
+  Trainer trainer(policy, bench_data(), t);
+  trainer.step();  // warm-up: allocation and oneDNN setup
+  for (auto _ : state) benchmark::DoNotOptimize(trainer.step());
+}
+
+void Sample(benchmark::State& state, const PolicyConfig& config) {
+  DiffusionPolicy policy(config, 0);
+  const Vec obs = bench_data().obs.row(0).transpose();
+  uint64_t seed = 0;
+  policy.sample(obs, seed++);
+  for (auto _ : state) benchmark::DoNotOptimize(policy.sample(obs, seed++));
+}
+
+void ExpectedLoss(benchmark::State& state, const PolicyConfig& config) {
+  DiffusionPolicy policy(config, 0);
+  const Vec obs = bench_data().obs.row(0).transpose();
+  const Mat chunk = bench_data().chunk(0);
+  uint64_t seed = 0;
+  policy.expected_loss(obs, chunk, seed++);
+  for (auto _ : state) benchmark::DoNotOptimize(policy.expected_loss(obs, chunk, seed++, kDefaultLossSamples));
+}
+
+void Decision(benchmark::State& state, const PolicyConfig& config) {
+  DiffusionPolicy policy(config, 0);
+  const Vec obs = bench_data().obs.row(0).transpose();
+  uint64_t seed = 0;
+  policy.decide(obs, seed++);
+  for (auto _ : state) benchmark::DoNotOptimize(policy.decide(obs, seed++, kDefaultLossSamples));
+}
+
+const PolicyConfig kReference = bench_config({64, 128, 256}, 128);
+const PolicyConfig kCpuDefault = bench_config(UnetConfig{}.down_dims, UnetConfig{}.step_embed_dim);
+
+BENCHMARK_CAPTURE(TrainStep, 64_128_256, kReference)->Name("BM_TrainStep_64_128_256")->Unit(benchmark::kMillisecond);
+BENCHMARK_CAPTURE(Sample, 64_128_256, kReference)->Name("BM_Sample_64_128_256")->Unit(benchmark::kMillisecond);
+BENCHMARK_CAPTURE(ExpectedLoss, 64_128_256, kReference)->Name("BM_ExpectedLoss_64_128_256")->Unit(benchmark::kMillisecond);
+BENCHMARK_CAPTURE(Decision, 64_128_256, kReference)->Name("BM_Decision_64_128_256")->Unit(benchmark::kMillisecond);
+BENCHMARK_CAPTURE(TrainStep, 32_64_128, kCpuDefault)->Name("BM_TrainStep_32_64_128")->Unit(benchmark::kMillisecond);
+BENCHMARK_CAPTURE(Sample, 32_64_128, kCpuDefault)->Name("BM_Sample_32_64_128")->Unit(benchmark::kMillisecond);
+BENCHMARK_CAPTURE(ExpectedLoss, 32_64_128, kCpuDefault)->Name("BM_ExpectedLoss_32_64_128")->Unit(benchmark::kMillisecond);
+BENCHMARK_CAPTURE(Decision, 32_64_128, kCpuDefault)->Name("BM_Decision_32_64_128")->Unit(benchmark::kMillisecond);
+
+}  // namespace
+}  // namespace dd
+
+int main(int argc, char** argv) {
+  spdlog::set_level(spdlog::level::warn);
+  const int threads = dd::set_num_threads();
+  benchmark::AddCustomContext("torch_threads", std::to_string(threads));
+  benchmark::Initialize(&argc, argv);
+  if (benchmark::ReportUnrecognizedArguments(argc, argv)) return 1;
+  benchmark::RunSpecifiedBenchmarks();
+  benchmark::Shutdown();
+  return 0;
+}
