@@ -1,0 +1,61 @@
+// The task interface every environment implements, and the expert interface that drives one.
+//
+// An Env is seeded and deterministic: reset(seed) followed by the same actions gives the same
+// trajectory. A step with a non-finite action, or a simulation that goes unstable, ends the episode
+// as failed with a warning; it never throws or crashes.
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "core/types.h"
+
+namespace dd {
+
+/// What one step did.
+struct StepResult {
+  bool done = false;     // the episode is over (success, failure, or time limit)
+  bool success = false;  // the task is achieved
+  bool failed = false;   // ended abnormally (non-finite action, unstable simulation)
+  std::string warning;   // why it failed, when it did
+};
+
+class Env {
+ public:
+  virtual ~Env() = default;
+  virtual std::string name() const = 0;
+  virtual int obs_dim() const = 0;
+  virtual int action_dim() const = 0;
+  /// T_L: steps before the episode times out.
+  virtual int time_limit() const = 0;
+  /// Control rate in Hz.
+  virtual double control_hz() const = 0;
+
+  /// Starts an episode from a random initial state drawn from `seed`.
+  virtual void reset(uint64_t seed) = 0;
+  /// The current observation (obs_dim).
+  virtual Vec observation() const = 0;
+  /// Applies one action (action_dim) for one control step.
+  virtual StepResult step(const Vec& action) = 0;
+  virtual bool success() const = 0;
+  /// Steps taken in this episode.
+  virtual int steps() const = 0;
+
+  /// The full simulation state, to restore later (e.g. to replay a takeover).
+  virtual std::vector<double> save_state() const = 0;
+  virtual void restore_state(const std::vector<double>& state) = 0;
+};
+
+/// An expert that acts in an Env (a scripted controller, a planner, or a human at the console).
+class Expert {
+ public:
+  virtual ~Expert() = default;
+  virtual std::string name() const = 0;
+  /// Called at the start of each episode (chooses a mode, clears plans).
+  virtual void reset(uint64_t seed) = 0;
+  /// The expert's action for the env's current state.
+  virtual Vec act(const Env& env) = 0;
+};
+
+}  // namespace dd
