@@ -12,6 +12,8 @@ using Command = std::function<int()>;
 
 /// `bimodal`: train a small policy on a synthetic two-mode data set, sample it, score it, save it.
 Command add_bimodal(CLI::App& app);
+/// `demo2d`: the 2-D multimodality demo (figure 2).
+Command add_demo2d(CLI::App& app);
 /// `inspect`: print a checkpoint's config, parameter count and normalisers.
 Command add_inspect(CLI::App& app);
 

@@ -21,6 +21,7 @@ int main(int argc, char** argv) {
     dd::app::Command c = fn(app);
     commands[app.get_subcommands({})[before]] = std::move(c);
   };
+  add(dd::app::add_demo2d);
   add(dd::app::add_bimodal);
   add(dd::app::add_inspect);
 

@@ -1,0 +1,57 @@
+#include "core/ensemble.h"
+
+#include <cmath>
+#include <random>
+
+namespace dd {
+
+PolicyEnsemble::PolicyEnsemble(const PolicyConfig& config, int members, uint64_t seed) : seed_(seed) {
+  if (members < 2) throw Error("ensemble: needs at least 2 members, got " + std::to_string(members));
+  for (int i = 0; i < members; ++i) members_.push_back(std::make_unique<DiffusionPolicy>(config, seed + static_cast<uint64_t>(i)));
+}
+
+std::vector<TrainStats> PolicyEnsemble::train(const std::vector<Episode>& episodes, const TrainConfig& config,
+                                              const ProgressFn& progress) {
+  if (episodes.empty()) throw Error("ensemble: no episodes to train on");
+  std::mt19937_64 rng(seed_ ^ 0xb0075742ull);
+  std::uniform_int_distribution<size_t> pick(0, episodes.size() - 1);
+  std::vector<TrainStats> stats;
+  const int total = config.steps * size();
+  for (int m = 0; m < size(); ++m) {
+    std::vector<Episode> resample;
+    resample.reserve(episodes.size());
+    for (size_t i = 0; i < episodes.size(); ++i) resample.push_back(episodes[pick(rng)]);
+    TrainConfig c = config;
+    c.seed = config.seed + static_cast<uint64_t>(m) * 7919;
+    const ProgressFn member_progress = progress ? ProgressFn([&, m](int done, int, double loss) {
+      progress(m * config.steps + done, total, loss);
+    }) : ProgressFn{};
+    stats.push_back(dd::train(*members_[static_cast<size_t>(m)],
+                              ChunkDataset::from_episodes(resample, members_[0]->config().horizon), c, member_progress));
+  }
+  return stats;
+}
+
+std::vector<std::vector<float>> PolicyEnsemble::spread(const Mat& obs, uint64_t seed) const {
+  const size_t B = static_cast<size_t>(obs.rows());
+  std::vector<std::vector<Mat>> samples;  // [member][row]
+  for (int m = 0; m < size(); ++m) samples.push_back(members_[static_cast<size_t>(m)]->sample_batch(obs, seed + static_cast<uint64_t>(m)));
+  std::vector<std::vector<float>> out(2, std::vector<float>(B));
+  for (size_t b = 0; b < B; ++b) {
+    Mat mean = Mat::Zero(samples[0][b].rows(), samples[0][b].cols());
+    for (const auto& s : samples) mean += s[b];
+    mean /= static_cast<float>(size());
+    Mat var = Mat::Zero(mean.rows(), mean.cols());
+    for (const auto& s : samples) var.array() += (s[b] - mean).array().square();
+    var /= static_cast<float>(size());
+    out[0][b] = var.array().sqrt().mean();
+    out[1][b] = var.mean();
+  }
+  return out;
+}
+
+std::vector<float> PolicyEnsemble::action_std(const Mat& obs, uint64_t seed) const { return spread(obs, seed)[0]; }
+
+std::vector<float> PolicyEnsemble::action_variance(const Mat& obs, uint64_t seed) const { return spread(obs, seed)[1]; }
+
+}  // namespace dd

@@ -1,0 +1,41 @@
+// An ensemble of diffusion policies trained on bootstrapped resamples of the demonstrations, the
+// uncertainty estimate of Ensemble-DAgger: the spread of the members' generated chunks.
+#pragma once
+
+#include <memory>
+#include <vector>
+
+#include "core/chunks.h"
+#include "core/policy.h"
+#include "core/trainer.h"
+
+namespace dd {
+
+class PolicyEnsemble {
+ public:
+  /// `members` policies of the same config, initialised from seed, seed + 1, ...
+  PolicyEnsemble(const PolicyConfig& config, int members, uint64_t seed);
+
+  int size() const { return static_cast<int>(members_.size()); }
+  DiffusionPolicy& member(int i) { return *members_[static_cast<size_t>(i)]; }
+  const DiffusionPolicy& member(int i) const { return *members_[static_cast<size_t>(i)]; }
+
+  /// Trains every member on its own bootstrap resample of the episodes (as many episodes, drawn with
+  /// replacement). Progress counts steps over all members.
+  std::vector<TrainStats> train(const std::vector<Episode>& episodes, const TrainConfig& config,
+                                const ProgressFn& progress = {});
+
+  /// Per observation row (B x obs_dim): each member generates one chunk; the result is the
+  /// standard deviation across members of every chunk element, averaged over time and action
+  /// dimensions (raw action units).
+  std::vector<float> action_std(const Mat& obs, uint64_t seed) const;
+  /// Same, as a variance (the mean over elements of the across-member variance).
+  std::vector<float> action_variance(const Mat& obs, uint64_t seed) const;
+
+ private:
+  std::vector<std::vector<float>> spread(const Mat& obs, uint64_t seed) const;  // [0]: std, [1]: var
+  std::vector<std::unique_ptr<DiffusionPolicy>> members_;
+  uint64_t seed_;
+};
+
+}  // namespace dd

@@ -1,0 +1,206 @@
+#include "ui/plot.h"
+
+#include <opencv2/imgproc.hpp>
+
+#include <cmath>
+#include <cstdio>
+
+namespace dd::ui {
+namespace {
+
+const cv::Scalar kInk(40, 40, 40);
+const cv::Scalar kGrid(225, 225, 225);
+constexpr int kFont = cv::FONT_HERSHEY_SIMPLEX;
+
+cv::Scalar scalar(const Rgb& c) { return cv::Scalar(c[0], c[1], c[2]); }  // canvases are RGB
+
+void text(cv::Mat& m, const std::string& s, cv::Point at, double scale = 0.5, cv::Scalar color = kInk,
+          int thickness = 1, bool centered = false) {
+  if (centered) {
+    int base = 0;
+    const cv::Size sz = cv::getTextSize(s, kFont, scale, thickness, &base);
+    at.x -= sz.width / 2;
+  }
+  cv::putText(m, s, at, kFont, scale, color, thickness, cv::LINE_AA);
+}
+
+void vertical_text(cv::Mat& m, const std::string& s, cv::Point center, double scale = 0.5) {
+  int base = 0;
+  const cv::Size sz = cv::getTextSize(s, kFont, scale, 1, &base);
+  cv::Mat strip(sz.height + base + 4, sz.width + 4, m.type(), cv::Scalar(255, 255, 255));
+  cv::putText(strip, s, {2, sz.height + 1}, kFont, scale, kInk, 1, cv::LINE_AA);
+  cv::Mat rotated;
+  cv::rotate(strip, rotated, cv::ROTATE_90_COUNTERCLOCKWISE);
+  const int x = std::clamp(center.x - rotated.cols / 2, 0, m.cols - rotated.cols);
+  const int y = std::clamp(center.y - rotated.rows / 2, 0, m.rows - rotated.rows);
+  rotated.copyTo(m(cv::Rect(x, y, rotated.cols, rotated.rows)));
+}
+
+std::string fmt_num(double v) {
+  char b[32];
+  const double a = std::abs(v);
+  if (a != 0 && (a < 1e-2 || a >= 1e4)) std::snprintf(b, sizeof b, "%.1e", v);
+  else if (a < 1) std::snprintf(b, sizeof b, "%.3f", v);
+  else std::snprintf(b, sizeof b, "%.2f", v);
+  return b;
+}
+
+// A "nice" step for about n ticks over [0, hi].
+double nice_step(double hi, int n) {
+  const double raw = hi / n;
+  const double mag = std::pow(10.0, std::floor(std::log10(raw)));
+  for (double f : {1.0, 2.0, 2.5, 5.0, 10.0})
+    if (f * mag >= raw) return f * mag;
+  return 10 * mag;
+}
+
+Image to_image(const cv::Mat& rgb) {
+  cv::Mat rgba;
+  cv::cvtColor(rgb, rgba, cv::COLOR_RGB2RGBA);
+  Image img;
+  img.width = rgba.cols;
+  img.height = rgba.rows;
+  img.rgba.assign(rgba.data, rgba.data + rgba.total() * 4);
+  return img;
+}
+
+cv::Mat to_mat(const Image& img) {
+  cv::Mat rgba(img.height, img.width, CV_8UC4, const_cast<uint8_t*>(img.rgba.data()));
+  cv::Mat rgb;
+  cv::cvtColor(rgba, rgb, cv::COLOR_RGBA2RGB);
+  return rgb;
+}
+
+}  // namespace
+
+Image draw_bars(const BarPanel& p) {
+  cv::Mat m(p.height, p.width, CV_8UC3, cv::Scalar(255, 255, 255));
+  const int left = 80, right = 20, top = 50, bottom = 60;
+  const cv::Rect area(left, top, p.width - left - right, p.height - top - bottom);
+  double hi = 0;
+  for (size_t i = 0; i < p.values.size(); ++i) {
+    const double e = i < p.errors.size() ? p.errors[i] : 0;
+    if (std::isfinite(p.values[i] + e)) hi = std::max(hi, p.values[i] + e);
+  }
+  if (hi <= 0) hi = 1;
+  const double step = nice_step(hi, 5);
+  hi = std::ceil(hi / step) * step;
+  auto y_of = [&](double v) { return area.y + area.height - static_cast<int>(std::lround(v / hi * area.height)); };
+  for (double v = 0; v <= hi + 1e-12; v += step) {
+    const int y = y_of(v);
+    cv::line(m, {area.x, y}, {area.x + area.width, y}, kGrid, 1);
+    text(m, fmt_num(v), {area.x - 8 - 8 * static_cast<int>(fmt_num(v).size()), y + 4}, 0.42);
+  }
+  const int n = static_cast<int>(p.values.size());
+  const int slot = n ? area.width / n : area.width;
+  for (int i = 0; i < n; ++i) {
+    const int cx = area.x + slot * i + slot / 2, half = slot * 3 / 10;
+    const double v = std::isfinite(p.values[i]) ? p.values[i] : 0;
+    const Rgb color = p.colors.empty() ? Rgb{90, 120, 200} : p.colors[static_cast<size_t>(i) % p.colors.size()];
+    cv::rectangle(m, {cx - half, y_of(v)}, {cx + half, y_of(0)}, scalar(color), cv::FILLED);
+    cv::rectangle(m, {cx - half, y_of(v)}, {cx + half, y_of(0)}, kInk, 1);
+    if (static_cast<size_t>(i) < p.errors.size() && std::isfinite(p.errors[i])) {
+      const int y0 = y_of(std::max(0.0, v - p.errors[i])), y1 = y_of(v + p.errors[i]);
+      cv::line(m, {cx, y0}, {cx, y1}, kInk, 2);
+      cv::line(m, {cx - 8, y0}, {cx + 8, y0}, kInk, 2);
+      cv::line(m, {cx - 8, y1}, {cx + 8, y1}, kInk, 2);
+    }
+    text(m, fmt_num(v), {cx, y_of(v + (static_cast<size_t>(i) < p.errors.size() ? p.errors[i] : 0)) - 8}, 0.42, kInk, 1, true);
+    if (static_cast<size_t>(i) < p.categories.size()) text(m, p.categories[static_cast<size_t>(i)], {cx, area.y + area.height + 24}, 0.5, kInk, 1, true);
+  }
+  cv::line(m, {area.x, area.y}, {area.x, area.y + area.height}, kInk, 1);
+  cv::line(m, {area.x, area.y + area.height}, {area.x + area.width, area.y + area.height}, kInk, 1);
+  text(m, p.title, {p.width / 2, 30}, 0.62, kInk, 2, true);
+  vertical_text(m, p.y_label, {16, area.y + area.height / 2});
+  return to_image(m);
+}
+
+Image draw_field(const FieldPanel& p) {
+  const int map = p.size, bar_w = 18, pad_l = 20, pad_r = 110, top = 50, bottom = 30;
+  cv::Mat m(top + map + bottom, pad_l + map + pad_r, CV_8UC3, cv::Scalar(255, 255, 255));
+  // Value range over finite cells.
+  double lo = INFINITY, hi = -INFINITY;
+  for (Eigen::Index i = 0; i < p.values.size(); ++i) {
+    double v = p.values.data()[i];
+    if (!std::isfinite(v) || (p.log_scale && v <= 0)) continue;
+    v = p.log_scale ? std::log10(v) : v;
+    lo = std::min(lo, v);
+    hi = std::max(hi, v);
+  }
+  if (!(hi > lo)) hi = lo + 1;
+  cv::Mat gray(static_cast<int>(p.values.rows()), static_cast<int>(p.values.cols()), CV_8UC1);
+  cv::Mat blocked(gray.size(), CV_8UC1, cv::Scalar(0));
+  for (int r = 0; r < gray.rows; ++r) {
+    for (int c = 0; c < gray.cols; ++c) {
+      double v = p.values(gray.rows - 1 - r, c);  // image rows run top-down, field rows bottom-up
+      const bool ok = std::isfinite(v) && (!p.log_scale || v > 0);
+      blocked.at<uint8_t>(r, c) = ok ? 0 : 255;
+      v = ok ? (p.log_scale ? std::log10(v) : v) : lo;
+      gray.at<uint8_t>(r, c) = static_cast<uint8_t>(std::clamp((v - lo) / (hi - lo), 0.0, 1.0) * 255);
+    }
+  }
+  cv::Mat big_gray, big_blocked, colored;
+  cv::resize(gray, big_gray, {map, map}, 0, 0, cv::INTER_NEAREST);
+  cv::resize(blocked, big_blocked, {map, map}, 0, 0, cv::INTER_NEAREST);
+  cv::applyColorMap(big_gray, colored, cv::COLORMAP_VIRIDIS);  // BGR
+  cv::cvtColor(colored, colored, cv::COLOR_BGR2RGB);
+  colored.setTo(cv::Scalar(120, 120, 120), big_blocked);
+  colored.copyTo(m(cv::Rect(pad_l, top, map, map)));
+
+  auto px = [&](const Eigen::Vector2d& w) {
+    return cv::Point(pad_l + static_cast<int>((w.x() - p.x0) / (p.x1 - p.x0) * map),
+                     top + static_cast<int>((p.y1 - w.y()) / (p.y1 - p.y0) * map));
+  };
+  cv::Mat area = m(cv::Rect(pad_l, top, map, map));
+  for (const Overlay& o : p.overlays) {
+    if (o.points.size() > 1) {
+      std::vector<cv::Point> pts;
+      for (const auto& w : o.points) pts.push_back(px(w) - cv::Point(pad_l, top));
+      cv::polylines(area, pts, false, scalar(o.color), o.thickness, cv::LINE_AA);
+      if (!o.label.empty()) text(m, o.label, px(o.points.back()) + cv::Point(6, 0), 0.45, scalar(o.color), 1);
+    } else {
+      const int rad = std::max(2, static_cast<int>(o.radius / (p.x1 - p.x0) * map));
+      cv::circle(m, px(o.center), rad, scalar(o.color), o.thickness, cv::LINE_AA);
+      if (!o.label.empty()) text(m, o.label, px(o.center) + cv::Point(rad + 4, 5), 0.45, scalar(o.color), 1);
+    }
+  }
+  cv::rectangle(m, cv::Rect(pad_l, top, map, map), kInk, 1);
+
+  // Colour bar.
+  const int bx = pad_l + map + 14;
+  cv::Mat ramp(map, 1, CV_8UC1);
+  for (int r = 0; r < map; ++r) ramp.at<uint8_t>(r, 0) = static_cast<uint8_t>(255 - r * 255 / std::max(1, map - 1));
+  cv::Mat ramp_c, ramp_big;
+  cv::applyColorMap(ramp, ramp_c, cv::COLORMAP_VIRIDIS);
+  cv::cvtColor(ramp_c, ramp_c, cv::COLOR_BGR2RGB);
+  cv::resize(ramp_c, ramp_big, {bar_w, map}, 0, 0, cv::INTER_NEAREST);
+  ramp_big.copyTo(m(cv::Rect(bx, top, bar_w, map)));
+  cv::rectangle(m, cv::Rect(bx, top, bar_w, map), kInk, 1);
+  for (int k = 0; k <= 4; ++k) {
+    const double v = lo + (hi - lo) * k / 4.0;
+    const int y = top + map - k * map / 4;
+    text(m, fmt_num(p.log_scale ? std::pow(10.0, v) : v), {bx + bar_w + 4, y + 4}, 0.4);
+  }
+  vertical_text(m, p.colorbar_label + (p.log_scale ? " (log scale)" : ""), {bx + bar_w + 80, top + map / 2}, 0.45);
+  text(m, p.title, {pad_l + map / 2, 32}, 0.6, kInk, 2, true);
+  return to_image(m);
+}
+
+Image hstack(const std::vector<Image>& images, const std::string& caption) {
+  int w = 0, h = 0;
+  for (const auto& i : images) {
+    w += i.width;
+    h = std::max(h, i.height);
+  }
+  const int cap = caption.empty() ? 0 : 34;
+  cv::Mat m(h + cap, std::max(w, 1), CV_8UC3, cv::Scalar(255, 255, 255));
+  int x = 0;
+  for (const auto& i : images) {
+    to_mat(i).copyTo(m(cv::Rect(x, 0, i.width, i.height)));
+    x += i.width;
+  }
+  if (cap) text(m, caption, {m.cols / 2, h + 22}, 0.45, cv::Scalar(90, 90, 90), 1, true);
+  return to_image(m);
+}
+
+}  // namespace dd::ui

@@ -1,0 +1,52 @@
+// Static figures for reports (PNG): bar charts with error bars and scalar fields over the plane.
+// Drawn with OpenCV, no GL; for live plots see the console.
+#pragma once
+
+#include <array>
+#include <string>
+#include <vector>
+
+#include "core/types.h"
+#include "ui/image_io.h"
+
+namespace dd::ui {
+
+using Rgb = std::array<uint8_t, 3>;
+
+/// A bar chart: one bar per category with a +-err whisker.
+struct BarPanel {
+  std::string title;
+  std::string y_label;              // with units
+  std::vector<std::string> categories;
+  std::vector<double> values, errors;
+  std::vector<Rgb> colors;          // one per bar (cycled)
+  int width = 520, height = 420;
+};
+Image draw_bars(const BarPanel& panel);
+
+/// A polyline or a circle drawn over a field, in world coordinates.
+struct Overlay {
+  std::vector<Eigen::Vector2d> points;  // a polyline when size() > 1
+  Eigen::Vector2d center{0, 0};         // a circle when points is empty
+  double radius = 0;
+  Rgb color{255, 255, 255};
+  int thickness = 2;                    // -1 fills a circle
+  std::string label;                    // drawn beside the circle / at the polyline's end
+};
+
+/// A scalar field over the rectangle [x0, x1] x [y0, y1], drawn as a heat map with a colour bar.
+struct FieldPanel {
+  std::string title;
+  std::string colorbar_label;
+  Mat values;                       // rows = y cells (bottom row first), cols = x cells; NaN = blocked
+  double x0 = -1, x1 = 1, y0 = -1, y1 = 1;
+  bool log_scale = false;
+  std::vector<Overlay> overlays;
+  int size = 520;                   // side of the square map in pixels
+};
+Image draw_field(const FieldPanel& panel);
+
+/// Places images side by side on white, top-aligned, with an optional caption line underneath.
+Image hstack(const std::vector<Image>& images, const std::string& caption = "");
+
+}  // namespace dd::ui
