@@ -48,7 +48,7 @@ install_missing() {
     local sudo=""; [[ $(id -u) -ne 0 ]] && sudo="sudo"
     for alt in libblas.so.3 liblapack.so.3 libopenblas.so.0; do
       local name="$alt-x86_64-linux-gnu"
-      if [[ -e $omp/$alt ]] && [[ $(readlink -f "/usr/lib/x86_64-linux-gnu/$alt") != "$omp/$alt" ]]; then
+      if [[ -e $omp/$alt ]] && [[ $(readlink -f "/usr/lib/x86_64-linux-gnu/$alt") != $(readlink -f "$omp/$alt") ]]; then
         log "pointing $alt at the OpenMP build of OpenBLAS"
         $sudo update-alternatives --set "$name" "$omp/$alt" >/dev/null
       fi

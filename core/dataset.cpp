@@ -1,0 +1,308 @@
+#include "core/dataset.h"
+
+#include <fcntl.h>
+#include <hdf5.h>
+#include <unistd.h>
+
+#include <filesystem>
+#include <cstring>
+#include <functional>
+
+#include "core/config.h"
+
+namespace dd {
+namespace {
+
+namespace fs = std::filesystem;
+
+// Owns an HDF5 id and closes it with the matching function.
+class H5 {
+ public:
+  H5(hid_t id, herr_t (*close)(hid_t)) : id_(id), close_(close) {}
+  ~H5() {
+    if (id_ >= 0) close_(id_);
+  }
+  H5(H5&& o) noexcept : id_(o.id_), close_(o.close_) { o.id_ = -1; }
+  H5(const H5&) = delete;
+  H5& operator=(const H5&) = delete;
+  operator hid_t() const { return id_; }
+  bool ok() const { return id_ >= 0; }
+
+ private:
+  hid_t id_;
+  herr_t (*close_)(hid_t);
+};
+
+struct SilenceHdf5 {
+  SilenceHdf5() { H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr); }
+};
+const SilenceHdf5 kSilence;  // errors become Error exceptions with the file and field named
+
+void check(herr_t status, const std::string& path, const std::string& what) {
+  if (status < 0) throw Error(path + ": " + what + " failed");
+}
+
+void write_attr_int(hid_t obj, const char* name, int64_t value, const std::string& path) {
+  if (H5Aexists(obj, name) > 0) check(H5Adelete(obj, name), path, std::string("replacing attribute ") + name);
+  H5 space(H5Screate(H5S_SCALAR), H5Sclose);
+  H5 attr(H5Acreate2(obj, name, H5T_NATIVE_INT64, space, H5P_DEFAULT, H5P_DEFAULT), H5Aclose);
+  if (!attr.ok()) throw Error(path + ": could not create attribute " + name);
+  check(H5Awrite(attr, H5T_NATIVE_INT64, &value), path, std::string("writing attribute ") + name);
+}
+
+void write_attr_string(hid_t obj, const char* name, const std::string& value, const std::string& path) {
+  if (H5Aexists(obj, name) > 0) check(H5Adelete(obj, name), path, std::string("replacing attribute ") + name);
+  H5 type(H5Tcopy(H5T_C_S1), H5Tclose);
+  H5Tset_size(type, std::max<size_t>(1, value.size()));
+  H5Tset_strpad(type, H5T_STR_NULLPAD);
+  H5 space(H5Screate(H5S_SCALAR), H5Sclose);
+  H5 attr(H5Acreate2(obj, name, type, space, H5P_DEFAULT, H5P_DEFAULT), H5Aclose);
+  if (!attr.ok()) throw Error(path + ": could not create attribute " + name);
+  check(H5Awrite(attr, type, value.empty() ? "" : value.data()), path, std::string("writing attribute ") + name);
+}
+
+int64_t read_attr_int(hid_t obj, const char* name, const std::string& where) {
+  if (H5Aexists(obj, name) <= 0) throw Error(where + ": missing attribute '" + name + "'");
+  H5 attr(H5Aopen(obj, name, H5P_DEFAULT), H5Aclose);
+  int64_t v = 0;
+  if (H5Aread(attr, H5T_NATIVE_INT64, &v) < 0) throw Error(where + ": attribute '" + name + "' is not an integer");
+  return v;
+}
+
+std::string read_attr_string(hid_t obj, const char* name, const std::string& where) {
+  if (H5Aexists(obj, name) <= 0) throw Error(where + ": missing attribute '" + name + "'");
+  H5 attr(H5Aopen(obj, name, H5P_DEFAULT), H5Aclose);
+  H5 type(H5Aget_type(attr), H5Tclose);
+  if (H5Tget_class(type) != H5T_STRING) throw Error(where + ": attribute '" + name + "' is not a string");
+  if (H5Tis_variable_str(type) > 0) {
+    char* s = nullptr;
+    H5 mem(H5Tcopy(H5T_C_S1), H5Tclose);
+    H5Tset_size(mem, H5T_VARIABLE);
+    if (H5Aread(attr, mem, &s) < 0) throw Error(where + ": attribute '" + name + "' unreadable");
+    std::string out = s ? s : "";
+    H5free_memory(s);
+    return out;
+  }
+  const size_t n = H5Tget_size(type);
+  std::string out(n, '\0');
+  if (H5Aread(attr, type, out.data()) < 0) throw Error(where + ": attribute '" + name + "' unreadable");
+  out.resize(std::strlen(out.c_str()));
+  return out;
+}
+
+void write_matrix(hid_t parent, const char* name, const Mat& m, const std::string& path) {
+  const hsize_t dims[2] = {static_cast<hsize_t>(m.rows()), static_cast<hsize_t>(m.cols())};
+  H5 space(H5Screate_simple(2, dims, nullptr), H5Sclose);
+  H5 ds(H5Dcreate2(parent, name, H5T_IEEE_F32LE, space, H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), H5Dclose);
+  if (!ds.ok()) throw Error(path + ": could not create dataset " + name);
+  check(H5Dwrite(ds, H5T_NATIVE_FLOAT, H5S_ALL, H5S_ALL, H5P_DEFAULT, m.data()), path, std::string("writing ") + name);
+}
+
+template <typename T>
+void write_vector(hid_t parent, const char* name, const std::vector<T>& v, hid_t file_type, hid_t mem_type,
+                  const std::string& path) {
+  const hsize_t dims[1] = {static_cast<hsize_t>(v.size())};
+  H5 space(H5Screate_simple(1, dims, nullptr), H5Sclose);
+  H5 ds(H5Dcreate2(parent, name, file_type, space, H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), H5Dclose);
+  if (!ds.ok()) throw Error(path + ": could not create dataset " + name);
+  check(H5Dwrite(ds, mem_type, H5S_ALL, H5S_ALL, H5P_DEFAULT, v.data()), path, std::string("writing ") + name);
+}
+
+Mat read_matrix(hid_t parent, const char* name, const std::string& where) {
+  if (H5Lexists(parent, name, H5P_DEFAULT) <= 0) throw Error(where + ": missing dataset '" + name + "'");
+  H5 ds(H5Dopen2(parent, name, H5P_DEFAULT), H5Dclose);
+  H5 space(H5Dget_space(ds), H5Sclose);
+  hsize_t dims[2] = {0, 1};
+  const int rank = H5Sget_simple_extent_ndims(space);
+  if (rank < 1 || rank > 2) throw Error(where + ": dataset '" + name + "' must be 1-D or 2-D");
+  H5Sget_simple_extent_dims(space, dims, nullptr);
+  Mat m(static_cast<Eigen::Index>(dims[0]), static_cast<Eigen::Index>(rank == 2 ? dims[1] : 1));
+  if (H5Dread(ds, H5T_NATIVE_FLOAT, H5S_ALL, H5S_ALL, H5P_DEFAULT, m.data()) < 0)
+    throw Error(where + ": dataset '" + name + "' unreadable");
+  return m;
+}
+
+template <typename T>
+std::vector<T> read_vector(hid_t parent, const char* name, hid_t mem_type, size_t expected, const std::string& where,
+                           bool required) {
+  if (H5Lexists(parent, name, H5P_DEFAULT) <= 0) {
+    if (required) throw Error(where + ": missing dataset '" + name + "'");
+    return {};
+  }
+  H5 ds(H5Dopen2(parent, name, H5P_DEFAULT), H5Dclose);
+  H5 space(H5Dget_space(ds), H5Sclose);
+  const hssize_t n = H5Sget_simple_extent_npoints(space);
+  if (n != static_cast<hssize_t>(expected))
+    throw Error(where + ": dataset '" + name + "' has " + std::to_string(n) + " values, expected " + std::to_string(expected));
+  std::vector<T> v(expected);
+  if (H5Dread(ds, mem_type, H5S_ALL, H5S_ALL, H5P_DEFAULT, v.data()) < 0) throw Error(where + ": dataset '" + name + "' unreadable");
+  return v;
+}
+
+void fsync_path(const std::string& p) {
+  const int fd = ::open(p.c_str(), O_RDONLY);
+  if (fd >= 0) {
+    ::fsync(fd);
+    ::close(fd);
+  }
+}
+
+H5 open_readonly(const std::string& path) {
+  if (!fs::exists(path)) throw Error(path + ": no such data set file");
+  H5 file(H5Fopen(path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT), H5Fclose);
+  if (!file.ok()) throw Error(path + ": not a readable HDF5 file (corrupt or truncated)");
+  return file;
+}
+
+// Walks /data/demo_<i> in index order; robomimic numbers demos from 0 without gaps.
+void for_each_demo(hid_t data, const std::string& path, int count, const std::function<void(hid_t, const std::string&)>& fn) {
+  for (int i = 0; i < count; ++i) {
+    const std::string name = "demo_" + std::to_string(i);
+    if (H5Lexists(data, name.c_str(), H5P_DEFAULT) <= 0) throw Error(path + ": missing group /data/" + name);
+    H5 demo(H5Gopen2(data, name.c_str(), H5P_DEFAULT), H5Gclose);
+    fn(demo, path + " /data/" + name);
+  }
+}
+
+int count_demos(hid_t data) {
+  H5G_info_t info;
+  if (H5Gget_info(data, &info) < 0) return 0;
+  return static_cast<int>(info.nlinks);
+}
+
+}  // namespace
+
+Episode RecordedEpisode::expert_steps() const {
+  std::vector<Eigen::Index> rows;
+  for (Eigen::Index i = 0; i < obs.rows(); ++i)
+    if (intervention.empty() || intervention[static_cast<size_t>(i)]) rows.push_back(i);
+  Episode e{Mat(static_cast<Eigen::Index>(rows.size()), obs.cols()), Mat(static_cast<Eigen::Index>(rows.size()), actions.cols())};
+  for (size_t k = 0; k < rows.size(); ++k) {
+    e.obs.row(static_cast<Eigen::Index>(k)) = obs.row(rows[k]);
+    e.actions.row(static_cast<Eigen::Index>(k)) = actions.row(rows[k]);
+  }
+  return e;
+}
+
+Episode RecordedEpisode::all_steps() const { return Episode{obs, actions}; }
+
+DatasetWriter::DatasetWriter(std::string path, std::string env_args) : path_(std::move(path)), env_args_(std::move(env_args)) {
+  if (fs::exists(path_)) {
+    const DatasetInfo info = dataset_info(path_);
+    if (info.env_args != env_args_)
+      throw Error(path_ + ": attribute env_args differs from this run's (" + info.env_args + " vs " + env_args_ +
+                  "); write to another file");
+    episodes_ = info.episodes;
+    total_ = info.total;
+  }
+}
+
+void DatasetWriter::append(const RecordedEpisode& ep) {
+  const auto T = static_cast<size_t>(ep.steps());
+  if (T == 0) throw Error(path_ + ": refusing to write an empty episode");
+  if (static_cast<size_t>(ep.actions.rows()) != T) throw Error(path_ + ": episode obs and actions differ in length");
+  if ((!ep.rewards.empty() && ep.rewards.size() != T) || (!ep.dones.empty() && ep.dones.size() != T) ||
+      (!ep.intervention.empty() && ep.intervention.size() != T))
+    throw Error(path_ + ": episode rewards/dones/intervention differ in length from obs");
+  if (!ep.obs.allFinite() || !ep.actions.allFinite())
+    throw Error(path_ + ": episode contains NaN or infinite observations or actions; not written");
+
+  const std::string tmp = path_ + ".partial";
+  std::error_code ec;
+  fs::remove(tmp, ec);
+  try {
+    if (fs::exists(path_)) {
+      fs::copy_file(path_, tmp, fs::copy_options::overwrite_existing);
+    } else {
+      H5 file(H5Fcreate(tmp.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT), H5Fclose);
+      if (!file.ok()) throw Error(path_ + ": could not create the data set file");
+      H5 data(H5Gcreate2(file, "data", H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), H5Gclose);
+      write_attr_int(data, "total", 0, path_);
+      write_attr_string(data, "env_args", env_args_, path_);
+    }
+    {
+      H5 file(H5Fopen(tmp.c_str(), H5F_ACC_RDWR, H5P_DEFAULT), H5Fclose);
+      if (!file.ok()) throw Error(path_ + ": could not open a copy for appending");
+      H5 data(H5Gopen2(file, "data", H5P_DEFAULT), H5Gclose);
+      const std::string name = "demo_" + std::to_string(episodes_);
+      H5 demo(H5Gcreate2(data, name.c_str(), H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), H5Gclose);
+      if (!demo.ok()) throw Error(path_ + ": could not create group /data/" + name);
+      H5 obs(H5Gcreate2(demo, "obs", H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), H5Gclose);
+      write_matrix(obs, "state", ep.obs, path_);
+      write_matrix(demo, "actions", ep.actions, path_);
+      std::vector<float> rewards = ep.rewards.empty() ? std::vector<float>(T, 0.f) : ep.rewards;
+      std::vector<uint8_t> dones = ep.dones;
+      if (dones.empty()) {
+        dones.assign(T, 0);
+        dones.back() = 1;
+      }
+      const std::vector<uint8_t> flags = ep.intervention.empty() ? std::vector<uint8_t>(T, 0) : ep.intervention;
+      write_vector(demo, "rewards", rewards, H5T_IEEE_F32LE, H5T_NATIVE_FLOAT, path_);
+      write_vector(demo, "dones", dones, H5T_STD_U8LE, H5T_NATIVE_UINT8, path_);
+      write_vector(demo, "intervention", flags, H5T_STD_U8LE, H5T_NATIVE_UINT8, path_);
+      write_attr_int(demo, "num_samples", static_cast<int64_t>(T), path_);
+      write_attr_int(demo, "success", ep.success ? 1 : 0, path_);
+      write_attr_string(demo, "source", ep.source, path_);
+      write_attr_int(data, "total", total_ + static_cast<int64_t>(T), path_);
+      check(H5Fflush(file, H5F_SCOPE_GLOBAL), path_, "flush");
+    }
+    fsync_path(tmp);
+    fs::rename(tmp, path_);
+    fsync_path(fs::absolute(path_).parent_path().string());
+  } catch (const fs::filesystem_error& e) {
+    fs::remove(tmp, ec);
+    throw Error(path_ + ": could not write the episode: " + e.code().message());
+  } catch (...) {
+    fs::remove(tmp, ec);
+    throw;
+  }
+  ++episodes_;
+  total_ += static_cast<int64_t>(T);
+}
+
+DatasetInfo dataset_info(const std::string& path) {
+  DatasetInfo info;
+  read_dataset(path, &info);
+  return info;
+}
+
+std::vector<RecordedEpisode> read_dataset(const std::string& path, DatasetInfo* info) {
+  H5 file = open_readonly(path);
+  if (H5Lexists(file, "data", H5P_DEFAULT) <= 0) throw Error(path + ": missing group /data (not a robomimic-layout data set)");
+  H5 data(H5Gopen2(file, "data", H5P_DEFAULT), H5Gclose);
+  DatasetInfo in;
+  in.path = path;
+  in.env_args = read_attr_string(data, "env_args", path + " /data");
+  const int64_t total = read_attr_int(data, "total", path + " /data");
+  std::vector<RecordedEpisode> out;
+  for_each_demo(data, path, count_demos(data), [&](hid_t demo, const std::string& where) {
+    RecordedEpisode ep;
+    if (H5Lexists(demo, "obs", H5P_DEFAULT) <= 0) throw Error(where + ": missing group 'obs'");
+    H5 obs(H5Gopen2(demo, "obs", H5P_DEFAULT), H5Gclose);
+    ep.obs = read_matrix(obs, "state", where + "/obs");
+    ep.actions = read_matrix(demo, "actions", where);
+    const auto T = static_cast<size_t>(ep.obs.rows());
+    if (static_cast<size_t>(ep.actions.rows()) != T) throw Error(where + ": 'actions' and 'obs/state' differ in length");
+    if (read_attr_int(demo, "num_samples", where) != static_cast<int64_t>(T))
+      throw Error(where + ": attribute num_samples does not match the data");
+    ep.rewards = read_vector<float>(demo, "rewards", H5T_NATIVE_FLOAT, T, where, true);
+    ep.dones = read_vector<uint8_t>(demo, "dones", H5T_NATIVE_UINT8, T, where, true);
+    ep.intervention = read_vector<uint8_t>(demo, "intervention", H5T_NATIVE_UINT8, T, where, false);
+    ep.success = H5Aexists(demo, "success") > 0 && read_attr_int(demo, "success", where) != 0;
+    if (H5Aexists(demo, "source") > 0) ep.source = read_attr_string(demo, "source", where);
+    in.total += static_cast<int64_t>(T);
+    in.successes += ep.success;
+    for (uint8_t f : ep.intervention) in.intervention_steps += f;
+    in.obs_dim = static_cast<int>(ep.obs.cols());
+    in.action_dim = static_cast<int>(ep.actions.cols());
+    out.push_back(std::move(ep));
+  });
+  in.episodes = static_cast<int>(out.size());
+  if (in.total != total)
+    throw Error(path + ": attribute /data total (" + std::to_string(total) + ") does not match the episodes (" +
+                std::to_string(in.total) + " steps)");
+  if (info) *info = in;
+  return out;
+}
+
+}  // namespace dd

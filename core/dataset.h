@@ -1,0 +1,78 @@
+// Data sets of episodes in robomimic's HDF5 layout, so robomimic and diffusion_policy can read them:
+//
+//   /data                       attrs: total (steps, int64), env_args (JSON string)
+//   /data/demo_<i>              attrs: num_samples (int64), success (int), source (string)
+//   /data/demo_<i>/obs/<key>    (T x obs_dim) float32; this project writes one key, "state"
+//   /data/demo_<i>/actions      (T x action_dim) float32
+//   /data/demo_<i>/rewards      (T) float32
+//   /data/demo_<i>/dones        (T) uint8
+//   /data/demo_<i>/intervention (T) uint8: 1 where the expert (human or scripted) acted
+//
+// Appending is crash-safe: every finished episode reaches the disk before append() returns, and a
+// process killed at any moment (kill -9, a full disk) leaves the previous complete file in place.
+// The price is a copy of the file per episode (written beside it, then renamed over it).
+#pragma once
+
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "core/chunks.h"
+#include "core/types.h"
+
+namespace dd {
+
+/// One recorded episode.
+struct RecordedEpisode {
+  Mat obs;                            // T x obs_dim
+  Mat actions;                        // T x action_dim
+  std::vector<float> rewards;         // T (empty: zeros)
+  std::vector<uint8_t> dones;         // T (empty: 1 on the last step)
+  std::vector<uint8_t> intervention;  // T (empty: zeros)
+  bool success = false;
+  std::string source = "expert";      // expert | intervention | robot
+
+  int steps() const { return static_cast<int>(obs.rows()); }
+  /// The steps where the expert acted, as an Episode for training (runs of flagged steps are joined).
+  Episode expert_steps() const;
+  /// All steps as an Episode.
+  Episode all_steps() const;
+};
+
+/// What a data set holds.
+struct DatasetInfo {
+  std::string path;
+  int episodes = 0;
+  int64_t total = 0;          // steps
+  int64_t intervention_steps = 0;
+  int successes = 0;
+  int obs_dim = 0, action_dim = 0;
+  std::string env_args;       // JSON
+};
+
+/// Appends episodes to an HDF5 file, creating it if needed.
+class DatasetWriter {
+ public:
+  /// Opens `path` for appending. A new file gets `env_args` (JSON); an existing one must be a readable
+  /// data set whose env_args match, or this throws Error naming the file and field.
+  DatasetWriter(std::string path, std::string env_args);
+
+  /// Writes one finished episode durably (fsync + rename). Throws Error naming the file on failure;
+  /// the file on disk then still holds every earlier episode.
+  void append(const RecordedEpisode& episode);
+  int episodes() const { return episodes_; }
+  const std::string& path() const { return path_; }
+
+ private:
+  std::string path_, env_args_;
+  int episodes_ = 0;
+  int64_t total_ = 0;
+};
+
+/// Reads every episode. Throws Error naming the file and the group or field that is missing or
+/// malformed. `info` (optional) receives the summary.
+std::vector<RecordedEpisode> read_dataset(const std::string& path, DatasetInfo* info = nullptr);
+/// Reads only the summary.
+DatasetInfo dataset_info(const std::string& path);
+
+}  // namespace dd
