@@ -32,22 +32,37 @@ std::vector<TrainStats> PolicyEnsemble::train(const std::vector<Episode>& episod
   return stats;
 }
 
+namespace {
+
+// Across-member standard deviation and variance of chunk b, each averaged over the chunk's elements.
+std::pair<float, float> spread_of(const std::vector<std::vector<Mat>>& samples, size_t b) {
+  const float m = static_cast<float>(samples.size());
+  Mat mean = Mat::Zero(samples[0][b].rows(), samples[0][b].cols());
+  for (const auto& s : samples) mean += s[b];
+  mean /= m;
+  Mat var = Mat::Zero(mean.rows(), mean.cols());
+  for (const auto& s : samples) var.array() += (s[b] - mean).array().square();
+  var /= m;
+  return {var.array().sqrt().mean(), var.mean()};
+}
+
+}  // namespace
+
 std::vector<std::vector<float>> PolicyEnsemble::spread(const Mat& obs, uint64_t seed) const {
-  const size_t B = static_cast<size_t>(obs.rows());
   std::vector<std::vector<Mat>> samples;  // [member][row]
   for (int m = 0; m < size(); ++m) samples.push_back(members_[static_cast<size_t>(m)]->sample_batch(obs, seed + static_cast<uint64_t>(m)));
-  std::vector<std::vector<float>> out(2, std::vector<float>(B));
-  for (size_t b = 0; b < B; ++b) {
-    Mat mean = Mat::Zero(samples[0][b].rows(), samples[0][b].cols());
-    for (const auto& s : samples) mean += s[b];
-    mean /= static_cast<float>(size());
-    Mat var = Mat::Zero(mean.rows(), mean.cols());
-    for (const auto& s : samples) var.array() += (s[b] - mean).array().square();
-    var /= static_cast<float>(size());
-    out[0][b] = var.array().sqrt().mean();
-    out[1][b] = var.mean();
-  }
+  std::vector<std::vector<float>> out(2, std::vector<float>(static_cast<size_t>(obs.rows())));
+  for (size_t b = 0; b < out[0].size(); ++b) std::tie(out[0][b], out[1][b]) = spread_of(samples, b);
   return out;
+}
+
+PolicyEnsemble::Decision PolicyEnsemble::decide(const Vec& obs, uint64_t seed) const {
+  std::vector<std::vector<Mat>> samples;
+  for (int m = 0; m < size(); ++m) samples.push_back(members_[static_cast<size_t>(m)]->sample_batch(obs.transpose(), seed + static_cast<uint64_t>(m)));
+  Decision d;
+  d.chunk = samples[0][0];
+  std::tie(d.std, d.variance) = spread_of(samples, 0);
+  return d;
 }
 
 std::vector<float> PolicyEnsemble::action_std(const Mat& obs, uint64_t seed) const { return spread(obs, seed)[0]; }

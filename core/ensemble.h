@@ -32,6 +32,15 @@ class PolicyEnsemble {
   /// Same, as a variance (the mean over elements of the across-member variance).
   std::vector<float> action_variance(const Mat& obs, uint64_t seed) const;
 
+  /// One control decision: every member generates a chunk for `obs`; the first member's chunk is the
+  /// one executed, and the spread of all of them is the uncertainty.
+  struct Decision {
+    Mat chunk;            // T_p x action_dim, raw units
+    float variance = 0;   // mean over elements of the across-member variance
+    float std = 0;        // mean over elements of the across-member standard deviation
+  };
+  Decision decide(const Vec& obs, uint64_t seed) const;
+
  private:
   std::vector<std::vector<float>> spread(const Mat& obs, uint64_t seed) const;  // [0]: std, [1]: var
   std::vector<std::unique_ptr<DiffusionPolicy>> members_;

@@ -23,9 +23,11 @@ QueryGate::QueryGate(float threshold, int patience) : threshold_(threshold), pat
   if (patience < 1) throw Error("gate: patience K must be >= 1, got " + std::to_string(patience));
 }
 
-GateDecision QueryGate::observe(float score) {
+GateDecision QueryGate::observe(float score) { return record(!std::isfinite(score) || score > threshold_); }
+
+GateDecision QueryGate::record(bool violation) {
   GateDecision d;
-  d.violation = !std::isfinite(score) || score > threshold_;
+  d.violation = violation;
   run_ = d.violation ? run_ + 1 : 0;
   d.run = run_;
   d.query = run_ >= patience_;

@@ -28,6 +28,8 @@ class QueryGate {
 
   /// Scores one decision. A non-finite score counts as a violation (the policy is lost).
   GateDecision observe(float score);
+  /// Counts one decision whose violation a method has already judged (e.g. Thrifty's novelty or risk).
+  GateDecision record(bool violation);
   /// Starts a new episode: the run of violations goes back to zero.
   void reset() { run_ = 0; }
   /// New threshold after a policy update; the current run is kept.

@@ -48,6 +48,7 @@ void Nav2dEnv::reset(uint64_t seed) {
   fixture.restitution = 0.f;
   agent_->CreateFixture(&fixture);
   steps_ = 0;
+  limit_ = config_.time_limit;
   success_ = false;
   failed_ = false;
 }
@@ -71,7 +72,7 @@ Vec Nav2dEnv::observation() const {
 
 StepResult Nav2dEnv::step(const Vec& action) {
   StepResult r;
-  if (success_ || failed_ || steps_ >= config_.time_limit) {
+  if (success_ || failed_ || steps_ >= limit_) {
     r.done = true;
     r.success = success_;
     r.failed = failed_;
@@ -102,7 +103,7 @@ StepResult Nav2dEnv::step(const Vec& action) {
   }
   success_ = (p - config_.goal).norm() < config_.goal_radius;
   r.success = success_;
-  r.done = success_ || steps_ >= config_.time_limit;
+  r.done = success_ || steps_ >= limit_;
   return r;
 }
 

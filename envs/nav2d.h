@@ -14,7 +14,7 @@
 
 #include <Eigen/Core>
 
-#include "envs/env.h"
+#include "core/env.h"
 
 class b2World;
 class b2Body;
@@ -47,7 +47,8 @@ class Nav2dEnv : public Env {
   std::string name() const override { return "nav2d"; }
   int obs_dim() const override { return 4; }
   int action_dim() const override { return 2; }
-  int time_limit() const override { return config_.time_limit; }
+  int time_limit() const override { return limit_; }
+  void set_time_limit(int steps) override { limit_ = steps; }
   double control_hz() const override { return config_.hz; }
 
   void reset(uint64_t seed) override;
@@ -71,6 +72,7 @@ class Nav2dEnv : public Env {
   std::unique_ptr<b2World> world_;
   b2Body* agent_ = nullptr;
   int steps_ = 0;
+  int limit_ = 0;
   bool success_ = false;
   bool failed_ = false;
 };

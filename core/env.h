@@ -1,4 +1,5 @@
-// The task interface every environment implements, and the expert interface that drives one.
+// The task interface every environment implements (envs/), and the expert interface that drives one.
+// Defined in core so that the DAgger session can drive any task; free of physics and GL.
 //
 // An Env is seeded and deterministic: reset(seed) followed by the same actions gives the same
 // trajectory. A step with a non-finite action, or a simulation that goes unstable, ends the episode
@@ -27,8 +28,11 @@ class Env {
   virtual std::string name() const = 0;
   virtual int obs_dim() const = 0;
   virtual int action_dim() const = 0;
-  /// T_L: steps before the episode times out.
+  /// Steps before the episode ends by time (T_L by default).
   virtual int time_limit() const = 0;
+  /// Changes the time limit for the current episode (reset restores the default); the DAgger
+  /// session raises it so that an expert taking over at T_L can finish the task.
+  virtual void set_time_limit(int steps) = 0;
   /// Control rate in Hz.
   virtual double control_hz() const = 0;
 

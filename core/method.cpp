@@ -1,0 +1,216 @@
+#include "core/method.h"
+
+#include <chrono>
+#include <cmath>
+#include <numeric>
+#include <random>
+
+#include "core/ensemble.h"
+#include "core/gate.h"
+#include "core/policy.h"
+#include "core/trainer.h"
+
+namespace dd {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+double since(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
+
+// At most n training pairs, drawn without replacement (all of them when n <= 0 or n >= size).
+ChunkDataset subsample(const ChunkDataset& d, int n, uint64_t seed) {
+  if (n <= 0 || n >= d.size()) return d;
+  std::vector<int> idx(static_cast<size_t>(d.size()));
+  std::iota(idx.begin(), idx.end(), 0);
+  std::mt19937_64 rng(seed);
+  std::shuffle(idx.begin(), idx.end(), rng);
+  ChunkDataset s;
+  s.horizon = d.horizon;
+  s.action_dim = d.action_dim;
+  s.obs.resize(n, d.obs_dim());
+  s.chunks.resize(n, d.chunks.cols());
+  for (int i = 0; i < n; ++i) {
+    s.obs.row(i) = d.obs.row(idx[static_cast<size_t>(i)]);
+    s.chunks.row(i) = d.chunks.row(idx[static_cast<size_t>(i)]);
+  }
+  return s;
+}
+
+class DiffMethod : public Method {
+ public:
+  DiffMethod(const PolicyConfig& pc, const MethodConfig& mc, uint64_t seed) : policy_(pc, seed), config_(mc), seed_(seed) {}
+  std::string name() const override { return "diff"; }
+
+  UpdateReport update(const std::vector<Episode>& expert, const std::vector<RecordedEpisode>&, const TrainConfig& train_config,
+                      const ProgressFn& progress) override {
+    UpdateReport r;
+    const ChunkDataset data = ChunkDataset::from_episodes(expert, policy_.config().horizon);
+    r.pairs = data.size();
+    auto t = Clock::now();
+    r.final_loss = train(policy_, data, train_config, progress).last_mean();
+    r.train_s = since(t);
+    t = Clock::now();
+    const ChunkDataset cal = subsample(data, config_.calibration_pairs, seed_ + ++updates_);
+    threshold_ = quantile(policy_.expected_losses(cal, seed_ * 31 + updates_, config_.loss_samples), config_.alpha);
+    r.threshold_s = since(t);
+    r.threshold = threshold_;
+    return r;
+  }
+
+  MethodDecision decide(const Vec& obs, uint64_t seed) override {
+    const Decision d = policy_.decide(obs, seed, config_.loss_samples);
+    MethodDecision m;
+    m.chunk = d.chunk;
+    m.score = d.loss;
+    m.threshold = threshold_;
+    m.violation = !std::isfinite(d.loss) || d.loss > threshold_;
+    return m;
+  }
+  float threshold() const override { return threshold_; }
+
+ private:
+  DiffusionPolicy policy_;
+  MethodConfig config_;
+  uint64_t seed_;
+  uint64_t updates_ = 0;
+  float threshold_ = INFINITY;
+};
+
+class EnsembleMethod : public Method {
+ public:
+  EnsembleMethod(const PolicyConfig& pc, const MethodConfig& mc, uint64_t seed)
+      : ensemble_(pc, mc.members, seed), config_(mc), seed_(seed) {}
+  std::string name() const override { return "ensemble"; }
+
+  UpdateReport update(const std::vector<Episode>& expert, const std::vector<RecordedEpisode>&, const TrainConfig& train_config,
+                      const ProgressFn& progress) override {
+    UpdateReport r;
+    const ChunkDataset data = ChunkDataset::from_episodes(expert, ensemble_.member(0).config().horizon);
+    r.pairs = data.size();
+    auto t = Clock::now();
+    const auto stats = ensemble_.train(expert, train_config, progress);
+    r.final_loss = stats.front().last_mean();
+    r.train_s = since(t);
+    t = Clock::now();
+    // The ensemble's threshold needs every member to sample at every calibration pair.
+    const ChunkDataset cal = subsample(data, config_.calibration_pairs, seed_ + ++updates_);
+    threshold_ = quantile(ensemble_.action_variance(cal.obs, seed_ * 31 + updates_), config_.alpha);
+    r.threshold_s = since(t);
+    r.threshold = threshold_;
+    return r;
+  }
+
+  MethodDecision decide(const Vec& obs, uint64_t seed) override {
+    const PolicyEnsemble::Decision d = ensemble_.decide(obs, seed);
+    MethodDecision m;
+    m.chunk = d.chunk;
+    m.score = d.variance;
+    m.threshold = threshold_;
+    m.violation = !std::isfinite(d.variance) || d.variance > threshold_;
+    return m;
+  }
+  float threshold() const override { return threshold_; }
+
+ protected:
+  PolicyEnsemble ensemble_;
+  MethodConfig config_;
+  uint64_t seed_;
+  uint64_t updates_ = 0;
+  float threshold_ = INFINITY;
+};
+
+class ThriftyMethod : public EnsembleMethod {
+ public:
+  ThriftyMethod(const PolicyConfig& pc, const MethodConfig& mc, uint64_t seed)
+      : EnsembleMethod(pc, mc, seed), critic_(pc.obs_dim, pc.action_dim, critic_config(mc, seed)) {}
+  std::string name() const override { return "thrifty"; }
+
+  UpdateReport update(const std::vector<Episode>& expert, const std::vector<RecordedEpisode>& robot, const TrainConfig& train_config,
+                      const ProgressFn& progress) override {
+    UpdateReport r = EnsembleMethod::update(expert, robot, train_config, progress);
+    // Risk: Q learned from demonstrations (successes) and robot rollouts (successes and failures).
+    auto t = Clock::now();
+    std::vector<RecordedEpisode> transitions;
+    for (const Episode& e : expert) {
+      RecordedEpisode re;
+      re.obs = e.obs;
+      re.actions = e.actions;
+      re.success = true;
+      transitions.push_back(std::move(re));
+    }
+    transitions.insert(transitions.end(), robot.begin(), robot.end());
+    critic_.train(transitions);
+    r.train_s += since(t);
+    t = Clock::now();
+    // gamma: a low quantile of Q over the robot's own states (the demonstrations' when there are none yet).
+    const std::vector<RecordedEpisode>& source = robot.empty() ? transitions : robot;
+    Eigen::Index n = 0;
+    for (const auto& e : source) n += e.steps();
+    Mat obs(n, expert.front().obs.cols()), act(n, expert.front().actions.cols());
+    Eigen::Index row = 0;
+    for (const auto& e : source) {
+      obs.middleRows(row, e.steps()) = e.obs;
+      act.middleRows(row, e.steps()) = e.actions;
+      row += e.steps();
+    }
+    gamma_ = quantile(critic_.q(obs, act), config_.risk_quantile);
+    r.threshold_s += since(t);
+    return r;
+  }
+
+  MethodDecision decide(const Vec& obs, uint64_t seed) override {
+    MethodDecision m = EnsembleMethod::decide(obs, seed);
+    m.risk_q = critic_.q(obs.transpose(), m.chunk.row(0)).front();
+    m.violation = m.violation || m.risk_q < gamma_;
+    return m;
+  }
+
+ private:
+  static CriticConfig critic_config(const MethodConfig& mc, uint64_t seed) {
+    CriticConfig c = mc.critic;
+    c.seed = seed;
+    return c;
+  }
+  RiskCritic critic_;
+  float gamma_ = 0;
+};
+
+class BcMethod : public Method {
+ public:
+  BcMethod(const PolicyConfig& pc, uint64_t seed) : policy_(pc, seed) {}
+  std::string name() const override { return "bc"; }
+  bool gated() const override { return false; }
+
+  UpdateReport update(const std::vector<Episode>& expert, const std::vector<RecordedEpisode>&, const TrainConfig& train_config,
+                      const ProgressFn& progress) override {
+    UpdateReport r;
+    const ChunkDataset data = ChunkDataset::from_episodes(expert, policy_.config().horizon);
+    r.pairs = data.size();
+    const auto t = Clock::now();
+    r.final_loss = train(policy_, data, train_config, progress).last_mean();
+    r.train_s = since(t);
+    return r;
+  }
+  MethodDecision decide(const Vec& obs, uint64_t seed) override {
+    MethodDecision m;
+    m.chunk = policy_.sample(obs, seed);
+    return m;
+  }
+  float threshold() const override { return INFINITY; }
+
+ private:
+  DiffusionPolicy policy_;
+};
+
+}  // namespace
+
+std::vector<std::string> method_names() { return {"diff", "ensemble", "thrifty", "bc"}; }
+
+std::unique_ptr<Method> make_method(const std::string& name, const PolicyConfig& policy, const MethodConfig& config, uint64_t seed) {
+  if (name == "diff") return std::make_unique<DiffMethod>(policy, config, seed);
+  if (name == "ensemble") return std::make_unique<EnsembleMethod>(policy, config, seed);
+  if (name == "thrifty") return std::make_unique<ThriftyMethod>(policy, config, seed);
+  if (name == "bc") return std::make_unique<BcMethod>(policy, seed);
+  throw Error("unknown method '" + name + "' (known: diff, ensemble, thrifty, bc)");
+}
+
+}  // namespace dd

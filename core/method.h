@@ -1,0 +1,75 @@
+// The interactive-learning methods behind one interface: a learner plus its query rule.
+//
+//   diff      one diffusion policy; score = expected diffusion loss of the generated chunk
+//   ensemble  5 bootstrapped policies; score = variance of their chunks
+//   thrifty   ensemble novelty (variance) or risk (learned Q below gamma)
+//   bc        one policy, never asks
+//
+// update() trains on all expert data and then sets the threshold (the alpha-quantile of the score
+// over the training pairs); decide() generates a chunk and says whether it violates the threshold.
+// The patience K lives in the session's QueryGate, the same for every method.
+#pragma once
+
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "core/chunks.h"
+#include "core/config.h"
+#include "core/critic.h"
+#include "core/dataset.h"
+#include "core/progress.h"
+
+namespace dd {
+
+/// Settings shared by the query rules.
+struct MethodConfig {
+  double alpha = 0.99;           // threshold quantile
+  int members = 5;               // ensemble size (ensemble, thrifty)
+  int loss_samples = 512;        // N_b (diff)
+  int calibration_pairs = 2000;  // threshold over at most this many training pairs (0: all)
+  double risk_quantile = 0.01;   // thrifty: gamma is this quantile of Q on robot data
+  CriticConfig critic;           // thrifty
+};
+
+/// One decision of a method.
+struct MethodDecision {
+  Mat chunk;                 // T_p x action_dim, raw units
+  float score = 0;           // the quantity the threshold applies to (loss or variance)
+  float threshold = 0;
+  bool violation = false;    // the query rule's verdict for this decision
+  float risk_q = -1;         // thrifty: min Q(o, a); -1 when not computed
+};
+
+/// What one policy update cost and set.
+struct UpdateReport {
+  double train_s = 0;        // training wall-clock
+  double threshold_s = 0;    // threshold setting wall-clock
+  float threshold = 0;
+  int pairs = 0;             // training pairs
+  double final_loss = 0;     // mean training loss over the last steps
+};
+
+class Method {
+ public:
+  virtual ~Method() = default;
+  virtual std::string name() const = 0;
+  /// False for BC: it never asks.
+  virtual bool gated() const { return true; }
+  /// Trains on `expert` (all expert data so far) and sets the threshold; `robot` holds the robot's
+  /// own rollouts (Thrifty's critic learns from them).
+  virtual UpdateReport update(const std::vector<Episode>& expert, const std::vector<RecordedEpisode>& robot,
+                              const TrainConfig& train, const ProgressFn& progress = {}) = 0;
+  /// Generates a chunk for `obs` and applies the query rule.
+  virtual MethodDecision decide(const Vec& obs, uint64_t seed) = 0;
+  /// The current threshold (after the first update).
+  virtual float threshold() const = 0;
+};
+
+/// "diff", "ensemble", "thrifty", "bc".
+std::vector<std::string> method_names();
+/// Builds a method by name; throws Error naming it when unknown.
+std::unique_ptr<Method> make_method(const std::string& name, const PolicyConfig& policy, const MethodConfig& config,
+                                    uint64_t seed);
+
+}  // namespace dd

@@ -1,0 +1,208 @@
+#include "core/session.h"
+
+#include <chrono>
+#include <cmath>
+
+#include "core/config.h"
+
+namespace dd {
+
+void DaggerConfig::validate() const {
+  auto check = [](bool ok, const char* field, const std::string& why) {
+    if (!ok) throw Error(std::string("dagger.") + field + ": " + why);
+  };
+  check(initial_demos >= 1, "initial_demos", "must be >= 1");
+  check(final_demos >= initial_demos, "final_demos", "must be >= initial_demos");
+  check(demos_per_update >= 1, "demos_per_update", "must be >= 1");
+  check(patience >= 1, "patience", "must be >= 1");
+  check(time_limit >= 1, "time_limit", "must be >= 1");
+  check(expert_time_limit == 0 || expert_time_limit >= time_limit, "expert_time_limit", "must be 0 or >= time_limit");
+  check(action_steps >= 1, "action_steps", "must be >= 1");
+}
+
+std::string to_string(Control c) {
+  switch (c) {
+    case Control::kRobot: return "robot";
+    case Control::kExpertQuery: return "expert_query";
+    case Control::kExpertTimeout: return "expert_timeout";
+    case Control::kExpertDemo: return "expert_demo";
+  }
+  return "?";
+}
+
+std::string to_string(EventKind k) {
+  switch (k) {
+    case EventKind::kEpisodeStart: return "episode_start";
+    case EventKind::kDecision: return "decision";
+    case EventKind::kQuery: return "query";
+    case EventKind::kTakeover: return "takeover";
+    case EventKind::kTimeout: return "timeout";
+    case EventKind::kEpisodeEnd: return "episode_end";
+    case EventKind::kUpdateStarted: return "update_started";
+    case EventKind::kUpdateProgress: return "update_progress";
+    case EventKind::kUpdateFinished: return "update_finished";
+    case EventKind::kDone: return "done";
+  }
+  return "?";
+}
+
+DaggerSession::DaggerSession(Env& env, Expert& expert, Method& method, const DaggerConfig& config, const TrainConfig& train,
+                             DatasetWriter* writer)
+    : env_(env), expert_(expert), method_(method), config_(config), train_(train), writer_(writer), gate_(0.f, config.patience) {
+  config_.validate();
+  train_.validate();
+  if (config_.expert_time_limit == 0) config_.expert_time_limit = 2 * config_.time_limit;
+}
+
+void DaggerSession::add_observer(SessionObserver observer) { observers_.push_back(std::move(observer)); }
+
+void DaggerSession::emit(SessionEvent e) {
+  e.episode = episode_;
+  e.step = in_episode_ ? env_.steps() : 0;
+  e.control = control_;
+  e.expert_demos = expert_demos_;
+  e.interventions = interventions_;
+  e.updates = updates_;
+  for (auto& o : observers_) o(e);
+}
+
+bool DaggerSession::tick() {
+  if (done_) return false;
+  if (update_pending_) {
+    run_update();
+    return !done_;
+  }
+  if (!in_episode_) start_episode();
+
+  const Vec obs = env_.observation();
+  if (control_ == Control::kRobot) {
+    if (env_.steps() >= config_.time_limit) {
+      emit({EventKind::kTimeout});
+      hand_over(Control::kExpertTimeout);
+    } else if (chunk_.rows() == 0 || chunk_pos_ >= config_.action_steps) {
+      const auto t = std::chrono::steady_clock::now();
+      const MethodDecision d = method_.decide(obs, episode_seed_ * 7919 + decisions_++);
+      const double took = std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count();
+      inference_s_ += took;
+      const GateDecision g = method_.gated() ? gate_.record(d.violation) : GateDecision{};
+      SessionEvent e{EventKind::kDecision};
+      e.score = d.score;
+      e.threshold = d.threshold;
+      e.risk_q = d.risk_q;
+      e.violation = g.violation;
+      e.run = g.run;
+      e.inference_s = took;
+      emit(e);
+      if (g.query) {
+        emit({EventKind::kQuery});
+        hand_over(Control::kExpertQuery);
+      } else {
+        chunk_ = d.chunk;
+        chunk_pos_ = 0;
+      }
+    }
+  }
+  const bool robot = control_ == Control::kRobot;
+  const Vec action = robot ? Vec(chunk_.row(chunk_pos_++).transpose()) : expert_.act(env_);
+  obs_.push_back(obs);
+  actions_.push_back(action);
+  flags_.push_back(robot ? 0 : 1);
+  if (env_.step(action).done) end_episode();
+  return !done_;
+}
+
+void DaggerSession::hand_over(Control to) {
+  control_ = to;
+  emit({EventKind::kTakeover});
+}
+
+void DaggerSession::start_episode() {
+  ++episode_;
+  episode_seed_ = config_.seed * 1000003ull + static_cast<uint64_t>(episode_);
+  env_.reset(episode_seed_);
+  expert_.reset(episode_seed_);
+  env_.set_time_limit(config_.expert_time_limit);
+  gate_.reset();
+  chunk_.resize(0, 0);
+  chunk_pos_ = 0;
+  obs_.clear();
+  actions_.clear();
+  flags_.clear();
+  const int demos_wanted = method_.gated() ? config_.initial_demos : config_.final_demos;
+  control_ = expert_demos_ < demos_wanted ? Control::kExpertDemo : Control::kRobot;
+  in_episode_ = true;
+  emit({EventKind::kEpisodeStart});
+}
+
+void DaggerSession::end_episode() {
+  RecordedEpisode rec;
+  const auto T = static_cast<Eigen::Index>(obs_.size());
+  rec.obs.resize(T, env_.obs_dim());
+  rec.actions.resize(T, env_.action_dim());
+  for (Eigen::Index t = 0; t < T; ++t) {
+    rec.obs.row(t) = obs_[static_cast<size_t>(t)].transpose();
+    rec.actions.row(t) = actions_[static_cast<size_t>(t)].transpose();
+  }
+  rec.intervention = flags_;
+  rec.success = env_.success();
+  rec.rewards.assign(static_cast<size_t>(T), 0.f);
+  if (rec.success && T > 0) rec.rewards.back() = 1.f;
+  rec.dones.assign(static_cast<size_t>(T), 0);
+  if (T > 0) rec.dones.back() = 1;
+  const bool expert_acted = control_ != Control::kRobot;
+  rec.source = control_ == Control::kExpertDemo ? "expert" : (expert_acted ? "intervention" : "robot");
+
+  SessionEvent end{EventKind::kEpisodeEnd};
+  end.success = rec.success;
+  if (expert_acted && T > 0) {
+    if (writer_) writer_->append(rec);  // durable before the next episode begins
+    expert_data_.push_back(rec.expert_steps());
+    ++expert_demos_;
+    if (control_ == Control::kExpertDemo) {
+      const int demos_wanted = method_.gated() ? config_.initial_demos : config_.final_demos;
+      if (expert_demos_ == demos_wanted) update_pending_ = true;
+    } else {
+      ++interventions_;
+      if (interventions_ % config_.demos_per_update == 0) update_pending_ = true;
+    }
+  } else if (T > 0) {
+    robot_data_.push_back(std::move(rec));
+  }
+  emit(end);
+  in_episode_ = false;
+  if (expert_demos_ >= config_.final_demos) {
+    finishing_ = true;
+    if (demos_at_last_update_ != expert_demos_) update_pending_ = true;
+  }
+}
+
+void DaggerSession::run_update(const ProgressFn& progress) {
+  emit({EventKind::kUpdateStarted});
+  int last_percent = -1;
+  const ProgressFn report_progress = [&](int done, int total, double value) {
+    if (progress) progress(done, total, value);
+    const int percent = total > 0 ? done * 100 / total : 100;
+    if (percent != last_percent) {
+      last_percent = percent;
+      SessionEvent e{EventKind::kUpdateProgress};
+      e.progress = percent / 100.0;
+      emit(e);
+    }
+  };
+  const UpdateReport r = method_.update(expert_data_, robot_data_, train_, report_progress);
+  ++updates_;
+  demos_at_last_update_ = expert_demos_;
+  update_pending_ = false;
+  gate_.set_threshold(r.threshold);
+  reports_.push_back(r);
+  inference_s_ = 0;
+  SessionEvent e{EventKind::kUpdateFinished};
+  e.report = r;
+  emit(e);
+  if (finishing_) {
+    done_ = true;
+    emit({EventKind::kDone});
+  }
+}
+
+}  // namespace dd

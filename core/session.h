@@ -1,0 +1,130 @@
+// Algorithm 1 of the paper as a session advanced one control tick at a time, so that the console,
+// a headless script and a batch run all drive the same code.
+//
+//   initial demos   the expert demonstrates N_i episodes, then the first policy update
+//   robot           the robot plans a chunk, executes T_a actions of it, plans again; each decision
+//                   goes through the method's query rule and the patience-K gate
+//   expert (query)  after K violations in a row the expert takes over from the current state and
+//                   finishes the episode; its steps are recorded with the intervention flag
+//   expert (timeout) the same when the robot has neither asked nor finished within T_L steps
+//   update          after every N_d interventions: train on all expert data, then set the threshold
+//   done            when N_f expert demonstrations exist (after a last update that includes them all)
+// An episode the robot finishes by itself adds no expert data (Thrifty's critic learns from it).
+//
+// BC never asks: its session demonstrates N_f episodes and trains once.
+#pragma once
+
+#include <functional>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "core/dataset.h"
+#include "core/env.h"
+#include "core/gate.h"
+#include "core/method.h"
+
+namespace dd {
+
+/// The data-aggregation schedule (the paper's Table III columns).
+struct DaggerConfig {
+  int initial_demos = 10;     // N_i
+  int final_demos = 30;       // N_f
+  int demos_per_update = 4;   // N_d: interventions between policy updates
+  int patience = 2;           // K
+  int time_limit = 200;       // T_L: robot steps before the expert takes over automatically
+  int expert_time_limit = 0;  // steps an episode may run in all, expert included (0: 2 * T_L)
+  int action_steps = 8;       // T_a: actions executed per chunk
+  uint64_t seed = 0;
+
+  void validate() const;
+};
+
+/// Who is acting.
+enum class Control { kRobot, kExpertQuery, kExpertTimeout, kExpertDemo };
+std::string to_string(Control c);
+
+enum class EventKind {
+  kEpisodeStart, kDecision, kQuery, kTakeover, kTimeout, kEpisodeEnd,
+  kUpdateStarted, kUpdateProgress, kUpdateFinished, kDone
+};
+std::string to_string(EventKind k);
+
+/// What happened; fields beyond kind/episode/step/control are filled where they apply.
+struct SessionEvent {
+  EventKind kind = EventKind::kEpisodeStart;
+  int episode = 0;           // 1-based episode number
+  int step = 0;              // env step within the episode
+  Control control = Control::kRobot;
+  float score = 0;           // kDecision: the method's score (loss or variance)
+  float threshold = 0;       // kDecision: the threshold it was compared with
+  float risk_q = -1;         // kDecision (thrifty): min Q
+  bool violation = false;    // kDecision
+  int run = 0;               // kDecision: violations in a row
+  double inference_s = 0;    // kDecision: time the decision took
+  bool success = false;      // kEpisodeEnd
+  double progress = 0;       // kUpdateProgress: 0..1
+  UpdateReport report;       // kUpdateFinished
+  int expert_demos = 0, interventions = 0, updates = 0;  // counts after the event
+};
+
+using SessionObserver = std::function<void(const SessionEvent&)>;
+
+class DaggerSession {
+ public:
+  /// The session borrows env, expert and method; `writer` (optional) receives every episode in which
+  /// the expert acted, as soon as it ends.
+  DaggerSession(Env& env, Expert& expert, Method& method, const DaggerConfig& config, const TrainConfig& train,
+                DatasetWriter* writer = nullptr);
+
+  /// Observers are called synchronously, in order, for every event.
+  void add_observer(SessionObserver observer);
+
+  /// Advances one control step, or runs a pending policy update. Returns false once done.
+  bool tick();
+  /// Runs the pending policy update now (the console calls it from a worker thread).
+  void run_update(const ProgressFn& progress = {});
+
+  bool done() const { return done_; }
+  bool update_pending() const { return update_pending_; }
+  bool in_episode() const { return in_episode_; }
+  Control control() const { return control_; }
+  int episode() const { return episode_; }
+  int expert_demos() const { return expert_demos_; }
+  int interventions() const { return interventions_; }
+  int updates() const { return updates_; }
+  const std::vector<UpdateReport>& reports() const { return reports_; }
+  /// Decision time spent since the last update began (for the wall-clock comparison).
+  double inference_s_since_update() const { return inference_s_; }
+  const std::vector<Episode>& expert_data() const { return expert_data_; }
+
+ private:
+  void start_episode();
+  void end_episode();
+  void emit(SessionEvent e);
+  void hand_over(Control to);
+
+  Env& env_;
+  Expert& expert_;
+  Method& method_;
+  DaggerConfig config_;
+  TrainConfig train_;
+  DatasetWriter* writer_;
+  QueryGate gate_;
+  std::vector<SessionObserver> observers_;
+
+  bool done_ = false, update_pending_ = false, finishing_ = false, in_episode_ = false;
+  Control control_ = Control::kExpertDemo;
+  int episode_ = 0, expert_demos_ = 0, interventions_ = 0, updates_ = 0, demos_at_last_update_ = -1;
+  uint64_t episode_seed_ = 0, decisions_ = 0;
+  Mat chunk_;
+  int chunk_pos_ = 0;
+  double inference_s_ = 0;
+  std::vector<Vec> obs_, actions_;
+  std::vector<uint8_t> flags_;
+  std::vector<Episode> expert_data_;
+  std::vector<RecordedEpisode> robot_data_;
+  std::vector<UpdateReport> reports_;
+};
+
+}  // namespace dd

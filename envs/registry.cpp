@@ -1,0 +1,35 @@
+#include "envs/registry.h"
+
+#include "core/config.h"
+#include "envs/nav2d.h"
+#include "envs/nav2d_expert.h"
+
+namespace dd {
+
+std::vector<std::string> task_names() { return {"nav2d"}; }
+
+std::unique_ptr<Env> make_env(const std::string& task) {
+  if (task == "nav2d") return std::make_unique<Nav2dEnv>();
+  throw Error("unknown task '" + task + "' (known: nav2d; the MuJoCo tasks stack, push and plug are not built yet)");
+}
+
+std::unique_ptr<Expert> make_expert(const std::string& task, const std::string& mode) {
+  if (task == "nav2d") {
+    if (mode == "cw") return std::make_unique<Nav2dExpert>(Nav2dExpert::Mode::kClockwise);
+    if (mode == "ccw") return std::make_unique<Nav2dExpert>(Nav2dExpert::Mode::kCounterClockwise);
+    if (mode == "mixed") return std::make_unique<Nav2dExpert>(Nav2dExpert::Mode::kMixed);
+    throw Error("nav2d expert: unknown mode '" + mode + "' (known: cw, ccw, mixed)");
+  }
+  throw Error("unknown task '" + task + "' for an expert");
+}
+
+std::string env_args(const std::string& task) {
+  if (task == "nav2d") {
+    const Nav2dConfig c;
+    return R"({"env_name": "nav2d", "type": "diffdagger", "env_kwargs": {"hz": )" + std::to_string(c.hz) +
+           R"(, "time_limit": )" + std::to_string(c.time_limit) + R"(, "obs": ["x", "y", "vx", "vy"], "action": ["target_x", "target_y"]}})";
+  }
+  throw Error("unknown task '" + task + "'");
+}
+
+}  // namespace dd

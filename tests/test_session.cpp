@@ -1,0 +1,287 @@
+// The DAgger session as a state machine, driven with a fake task and a scripted method: queries
+// after exactly K violations in a row, time-limit hand-over, updates after N_d interventions, the
+// stop at N_f, and the order of events.
+#include <gtest/gtest.h>
+
+#include <deque>
+#include <filesystem>
+
+#include "core/config.h"
+#include "core/session.h"
+
+namespace dd {
+namespace {
+
+// A point on a line: the action is a velocity in [-1, 1]; success at x >= 10.
+class LineEnv : public Env {
+ public:
+  std::string name() const override { return "line"; }
+  int obs_dim() const override { return 1; }
+  int action_dim() const override { return 1; }
+  int time_limit() const override { return limit_; }
+  void set_time_limit(int s) override { limit_ = s; }
+  double control_hz() const override { return 10; }
+  void reset(uint64_t) override {
+    x_ = 0;
+    steps_ = 0;
+    limit_ = 50;
+  }
+  Vec observation() const override { return Vec::Constant(1, x_); }
+  StepResult step(const Vec& a) override {
+    x_ += std::clamp(a[0], -1.f, 1.f);
+    ++steps_;
+    StepResult r;
+    r.success = success();
+    r.done = r.success || steps_ >= limit_;
+    return r;
+  }
+  bool success() const override { return x_ >= 10; }
+  int steps() const override { return steps_; }
+  std::vector<double> save_state() const override { return {x_, double(steps_)}; }
+  void restore_state(const std::vector<double>& s) override {
+    x_ = static_cast<float>(s[0]);
+    steps_ = static_cast<int>(s[1]);
+  }
+
+ private:
+  float x_ = 0;
+  int steps_ = 0, limit_ = 50;
+};
+
+class ForwardExpert : public Expert {
+ public:
+  std::string name() const override { return "forward"; }
+  void reset(uint64_t) override {}
+  Vec act(const Env&) override { return Vec::Ones(1); }
+};
+
+// Decides from a script of verdicts; its chunks move at `speed`. Counts updates.
+class ScriptedMethod : public Method {
+ public:
+  explicit ScriptedMethod(std::deque<bool> verdicts, float speed = 1.f, bool gated = true)
+      : verdicts_(std::move(verdicts)), speed_(speed), gated_(gated) {}
+  std::string name() const override { return "scripted"; }
+  bool gated() const override { return gated_; }
+  UpdateReport update(const std::vector<Episode>& expert, const std::vector<RecordedEpisode>&, const TrainConfig&,
+                      const ProgressFn& progress) override {
+    update_sizes.push_back(static_cast<int>(expert.size()));
+    if (progress) progress(1, 1, 0.0);
+    UpdateReport r;
+    r.threshold = 0.5f;
+    return r;
+  }
+  MethodDecision decide(const Vec&, uint64_t) override {
+    MethodDecision d;
+    d.chunk = Mat::Constant(8, 1, speed_);
+    d.violation = verdicts_.empty() ? false : verdicts_.front();
+    if (!verdicts_.empty()) verdicts_.pop_front();
+    d.score = d.violation ? 1.f : 0.f;
+    d.threshold = 0.5f;
+    return d;
+  }
+  float threshold() const override { return 0.5f; }
+  std::vector<int> update_sizes;
+
+ private:
+  std::deque<bool> verdicts_;
+  float speed_;
+  bool gated_;
+};
+
+DaggerConfig small_config() {
+  DaggerConfig c;
+  c.initial_demos = 1;
+  c.final_demos = 3;
+  c.demos_per_update = 1;
+  c.patience = 2;
+  c.time_limit = 20;
+  c.action_steps = 2;
+  return c;
+}
+
+TrainConfig no_training() {
+  TrainConfig t;
+  t.steps = 0;
+  return t;
+}
+
+struct Recorder {
+  std::vector<SessionEvent> events;
+  SessionObserver fn() {
+    return [this](const SessionEvent& e) {
+      if (e.kind != EventKind::kUpdateProgress) events.push_back(e);
+    };
+  }
+  std::vector<EventKind> kinds() const {
+    std::vector<EventKind> k;
+    for (const auto& e : events) k.push_back(e.kind);
+    return k;
+  }
+  int count(EventKind k) const {
+    int n = 0;
+    for (const auto& e : events) n += e.kind == k;
+    return n;
+  }
+};
+
+void run_to_end(DaggerSession& s, int max_ticks = 10000) {
+  for (int i = 0; i < max_ticks && s.tick(); ++i) {
+  }
+}
+
+}  // namespace
+
+TEST(Session, QueriesAfterExactlyKViolationsInARow) {
+  LineEnv env;
+  ForwardExpert expert;
+  // Episode 2 (the first robot episode): violation, ok, violation, violation -> query at decision 4.
+  ScriptedMethod method({true, false, true, true});
+  DaggerConfig c = small_config();
+  c.final_demos = 2;
+  DaggerSession s(env, expert, method, c, no_training());
+  Recorder rec;
+  s.add_observer(rec.fn());
+  run_to_end(s);
+
+  std::vector<SessionEvent> decisions;
+  for (const auto& e : rec.events)
+    if (e.kind == EventKind::kDecision) decisions.push_back(e);
+  ASSERT_EQ(decisions.size(), 4u);
+  EXPECT_EQ(decisions[0].run, 1);
+  EXPECT_EQ(decisions[1].run, 0);  // the run was interrupted
+  EXPECT_EQ(decisions[2].run, 1);  // K - 1: no query yet
+  EXPECT_EQ(decisions[3].run, 2);
+  EXPECT_EQ(rec.count(EventKind::kQuery), 1);
+  // The query comes right after the K-th violating decision, then the takeover, at step 6 (3 chunks of 2).
+  for (size_t i = 0; i + 2 < rec.events.size(); ++i) {
+    if (rec.events[i].kind == EventKind::kQuery) {
+      EXPECT_EQ(rec.events[i - 1].kind, EventKind::kDecision);
+      EXPECT_EQ(rec.events[i + 1].kind, EventKind::kTakeover);
+      EXPECT_EQ(rec.events[i + 1].control, Control::kExpertQuery);
+      EXPECT_EQ(rec.events[i].step, 6);
+    }
+  }
+  EXPECT_EQ(s.interventions(), 1);
+  EXPECT_TRUE(s.done());
+}
+
+TEST(Session, GateRunResetsEachEpisode) {
+  LineEnv env;
+  ForwardExpert expert;
+  // Episode 2 ends with one violation pending (the robot reaches the goal); episode 3's first
+  // violation must not complete a K = 2 run.
+  std::deque<bool> v(4, false);
+  v.push_back(true);   // 5th and last decision of episode 2 (x = 10 after 5 chunks of 2)
+  v.push_back(true);   // first decision of episode 3
+  v.push_back(false);
+  ScriptedMethod method(v);
+  DaggerConfig c = small_config();
+  c.final_demos = 2;
+  c.time_limit = 40;
+  DaggerSession s(env, expert, method, c, no_training());
+  Recorder rec;
+  s.add_observer(rec.fn());
+  for (int i = 0; i < 200 && !(s.episode() == 4 && !s.in_episode()); ++i) s.tick();
+  EXPECT_EQ(rec.count(EventKind::kDecision), 5 + 5 + 5);  // episodes 2, 3 and 4 ran to the goal
+  EXPECT_EQ(rec.count(EventKind::kQuery), 0);
+}
+
+TEST(Session, TimeLimitHandsOverToTheExpert) {
+  LineEnv env;
+  ForwardExpert expert;
+  ScriptedMethod method({}, /*speed=*/0.f);  // never violates, never moves
+  DaggerConfig c = small_config();
+  c.final_demos = 2;
+  DaggerSession s(env, expert, method, c, no_training());
+  Recorder rec;
+  s.add_observer(rec.fn());
+  run_to_end(s);
+  ASSERT_EQ(rec.count(EventKind::kTimeout), 1);
+  for (size_t i = 0; i + 1 < rec.events.size(); ++i) {
+    if (rec.events[i].kind == EventKind::kTimeout) {
+      EXPECT_EQ(rec.events[i].step, c.time_limit);
+      EXPECT_EQ(rec.events[i + 1].kind, EventKind::kTakeover);
+      EXPECT_EQ(rec.events[i + 1].control, Control::kExpertTimeout);
+    }
+  }
+  // The expert finished the task after the robot's time limit.
+  bool succeeded = false;
+  for (const auto& e : rec.events)
+    if (e.kind == EventKind::kEpisodeEnd && e.control == Control::kExpertTimeout) succeeded = e.success;
+  EXPECT_TRUE(succeeded);
+  EXPECT_EQ(s.interventions(), 1);
+}
+
+TEST(Session, UpdatesAfterEveryNdInterventionsAndStopsAtNf) {
+  LineEnv env;
+  ForwardExpert expert;
+  std::deque<bool> always(1000, true);
+  ScriptedMethod method(always);
+  DaggerConfig c = small_config();
+  c.initial_demos = 2;
+  c.final_demos = 7;
+  c.demos_per_update = 2;
+  c.patience = 1;
+  const std::string path = (std::filesystem::temp_directory_path() / "dd_session_test.hdf5").string();
+  std::filesystem::remove(path);
+  DatasetWriter writer(path, "{}");
+  DaggerSession s(env, expert, method, c, no_training(), &writer);
+  Recorder rec;
+  s.add_observer(rec.fn());
+  run_to_end(s);
+  EXPECT_TRUE(s.done());
+  EXPECT_EQ(s.expert_demos(), 7);
+  EXPECT_EQ(s.interventions(), 5);
+  // Initial update on 2 demos; after interventions 2 and 4 (4 and 6 demos); a last one on all 7.
+  EXPECT_EQ(method.update_sizes, (std::vector<int>{2, 4, 6, 7}));
+  EXPECT_EQ(rec.count(EventKind::kUpdateFinished), 4);
+  EXPECT_EQ(rec.events.back().kind, EventKind::kDone);
+  EXPECT_FALSE(s.tick());
+  // Every expert episode reached the data set, with the intervention flag on the expert's steps.
+  const auto eps = read_dataset(path);
+  ASSERT_EQ(eps.size(), 7u);
+  EXPECT_EQ(eps[0].source, "expert");
+  EXPECT_EQ(eps[2].source, "intervention");
+  for (uint8_t f : eps[2].intervention) EXPECT_EQ(f, 1);  // K = 1 and a violation at the first decision
+  std::filesystem::remove(path);
+}
+
+TEST(Session, EventsComeInOrder) {
+  LineEnv env;
+  ForwardExpert expert;
+  ScriptedMethod method({true, true});
+  DaggerConfig c = small_config();
+  c.final_demos = 2;
+  DaggerSession s(env, expert, method, c, no_training());
+  Recorder rec;
+  s.add_observer(rec.fn());
+  run_to_end(s);
+  const std::vector<EventKind> expected_start{EventKind::kEpisodeStart, EventKind::kEpisodeEnd, EventKind::kUpdateStarted,
+                                              EventKind::kUpdateFinished, EventKind::kEpisodeStart, EventKind::kDecision,
+                                              EventKind::kDecision, EventKind::kQuery, EventKind::kTakeover, EventKind::kEpisodeEnd,
+                                              EventKind::kUpdateStarted, EventKind::kUpdateFinished, EventKind::kDone};
+  EXPECT_EQ(rec.kinds(), expected_start);
+}
+
+TEST(Session, BcDemonstratesNfEpisodesAndTrainsOnce) {
+  LineEnv env;
+  ForwardExpert expert;
+  ScriptedMethod method({}, 1.f, /*gated=*/false);
+  DaggerConfig c = small_config();
+  c.final_demos = 4;
+  DaggerSession s(env, expert, method, c, no_training());
+  run_to_end(s);
+  EXPECT_EQ(method.update_sizes, (std::vector<int>{4}));
+  EXPECT_EQ(s.interventions(), 0);
+}
+
+TEST(Session, RejectsBadSchedules) {
+  LineEnv env;
+  ForwardExpert expert;
+  ScriptedMethod method({});
+  DaggerConfig c = small_config();
+  c.final_demos = 0;
+  EXPECT_THROW(DaggerSession(env, expert, method, c, no_training()), Error);
+}
+
+}  // namespace dd
