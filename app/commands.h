@@ -14,6 +14,12 @@ using Command = std::function<int()>;
 Command add_bimodal(CLI::App& app);
 /// `demo2d`: the 2-D multimodality demo (figure 2).
 Command add_demo2d(CLI::App& app);
+/// `dagger`: one interactive-learning run with the scripted expert.
+Command add_dagger(CLI::App& app);
+/// `eval`: RQ1-RQ3 for every method on a task.
+Command add_eval(CLI::App& app);
+/// `dataset info|export|merge`.
+Command add_dataset(CLI::App& app);
 /// `inspect`: print a checkpoint's config, parameter count and normalisers.
 Command add_inspect(CLI::App& app);
 

@@ -22,6 +22,9 @@ int main(int argc, char** argv) {
     commands[app.get_subcommands({})[before]] = std::move(c);
   };
   add(dd::app::add_demo2d);
+  add(dd::app::add_dagger);
+  add(dd::app::add_eval);
+  add(dd::app::add_dataset);
   add(dd::app::add_bimodal);
   add(dd::app::add_inspect);
 

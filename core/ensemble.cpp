@@ -3,11 +3,15 @@
 #include <cmath>
 #include <random>
 
+#include <spdlog/spdlog.h>
+
 namespace dd {
 
 PolicyEnsemble::PolicyEnsemble(const PolicyConfig& config, int members, uint64_t seed) : seed_(seed) {
   if (members < 2) throw Error("ensemble: needs at least 2 members, got " + std::to_string(members));
-  for (int i = 0; i < members; ++i) members_.push_back(std::make_unique<DiffusionPolicy>(config, seed + static_cast<uint64_t>(i)));
+  for (int i = 0; i < members; ++i)
+    members_.push_back(std::make_unique<DiffusionPolicy>(config, seed + static_cast<uint64_t>(i), /*announce=*/false));
+  spdlog::info("ensemble: {} policies of {} parameters each", members, members_[0]->num_parameters());
 }
 
 std::vector<TrainStats> PolicyEnsemble::train(const std::vector<Episode>& episodes, const TrainConfig& config,

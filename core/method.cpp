@@ -66,6 +66,7 @@ class DiffMethod : public Method {
     return m;
   }
   float threshold() const override { return threshold_; }
+  void save(const std::string& dir) const override { policy_.save(dir + "/policy.pt"); }
 
  private:
   DiffusionPolicy policy_;
@@ -109,6 +110,9 @@ class EnsembleMethod : public Method {
     return m;
   }
   float threshold() const override { return threshold_; }
+  void save(const std::string& dir) const override {
+    for (int i = 0; i < ensemble_.size(); ++i) ensemble_.member(i).save(dir + "/member_" + std::to_string(i) + ".pt");
+  }
 
  protected:
   PolicyEnsemble ensemble_;
@@ -196,6 +200,7 @@ class BcMethod : public Method {
     return m;
   }
   float threshold() const override { return INFINITY; }
+  void save(const std::string& dir) const override { policy_.save(dir + "/policy.pt"); }
 
  private:
   DiffusionPolicy policy_;

@@ -64,6 +64,8 @@ class Method {
   virtual MethodDecision decide(const Vec& obs, uint64_t seed) = 0;
   /// The current threshold (after the first update).
   virtual float threshold() const = 0;
+  /// Writes the method's policy checkpoints into `dir` (policy.pt, or member_<i>.pt for ensembles).
+  virtual void save(const std::string& dir) const = 0;
 };
 
 /// "diff", "ensemble", "thrifty", "bc".

@@ -98,10 +98,11 @@ torch::Tensor DiffusionPolicy::Impl::sample(const torch::Tensor& obs, torch::Gen
   return x.clamp(-1.0, 1.0);
 }
 
-DiffusionPolicy::DiffusionPolicy(const PolicyConfig& config, uint64_t seed) {
+DiffusionPolicy::DiffusionPolicy(const PolicyConfig& config, uint64_t seed, bool announce) {
   config.validate();
   impl_ = std::make_unique<Impl>(config, seed);
-  spdlog::info("policy: ConditionalUnet1D down_dims [{}], kernel {}, step embedding {}, T_p {}, T_d {}: {} parameters",
+  if (announce)
+    spdlog::info("policy: ConditionalUnet1D down_dims [{}], kernel {}, step embedding {}, T_p {}, T_d {}: {} parameters",
                join(config.unet.down_dims), config.unet.kernel_size, config.unet.step_embed_dim, config.horizon,
                config.scheduler.num_train_timesteps, num_parameters());
 }

@@ -34,9 +34,9 @@ struct Decision {
 
 class DiffusionPolicy {
  public:
-  /// Builds a freshly initialised network (weights drawn from `seed`) and logs its parameter count.
-  /// Throws Error naming the field if the config is invalid.
-  DiffusionPolicy(const PolicyConfig& config, uint64_t seed);
+  /// Builds a freshly initialised network (weights drawn from `seed`) and, when `announce`, logs its
+  /// parameter count. Throws Error naming the field if the config is invalid.
+  DiffusionPolicy(const PolicyConfig& config, uint64_t seed, bool announce = true);
   ~DiffusionPolicy();
   DiffusionPolicy(const DiffusionPolicy&) = delete;
   DiffusionPolicy& operator=(const DiffusionPolicy&) = delete;

@@ -18,6 +18,7 @@ void DaggerConfig::validate() const {
   check(time_limit >= 1, "time_limit", "must be >= 1");
   check(expert_time_limit == 0 || expert_time_limit >= time_limit, "expert_time_limit", "must be 0 or >= time_limit");
   check(action_steps >= 1, "action_steps", "must be >= 1");
+  check(max_episodes >= 0, "max_episodes", "must be >= 0");
 }
 
 std::string to_string(Control c) {
@@ -170,7 +171,8 @@ void DaggerSession::end_episode() {
   }
   emit(end);
   in_episode_ = false;
-  if (expert_demos_ >= config_.final_demos) {
+  const bool out_of_episodes = config_.max_episodes > 0 && episode_ >= config_.max_episodes;
+  if (expert_demos_ >= config_.final_demos || out_of_episodes) {
     finishing_ = true;
     if (demos_at_last_update_ != expert_demos_) update_pending_ = true;
   }

@@ -8,7 +8,8 @@
 //                   finishes the episode; its steps are recorded with the intervention flag
 //   expert (timeout) the same when the robot has neither asked nor finished within T_L steps
 //   update          after every N_d interventions: train on all expert data, then set the threshold
-//   done            when N_f expert demonstrations exist (after a last update that includes them all)
+//   done            when N_f expert demonstrations exist (after a last update that includes them all),
+//                   or after max_episodes episodes when a robot rarely needs help
 // An episode the robot finishes by itself adds no expert data (Thrifty's critic learns from it).
 //
 // BC never asks: its session demonstrates N_f episodes and trains once.
@@ -35,6 +36,7 @@ struct DaggerConfig {
   int time_limit = 200;       // T_L: robot steps before the expert takes over automatically
   int expert_time_limit = 0;  // steps an episode may run in all, expert included (0: 2 * T_L)
   int action_steps = 8;       // T_a: actions executed per chunk
+  int max_episodes = 0;       // stop after this many episodes even short of N_f (0: no bound)
   uint64_t seed = 0;
 
   void validate() const;

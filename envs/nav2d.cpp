@@ -15,6 +15,13 @@ Nav2dEnv::Nav2dEnv(Nav2dConfig config) : config_(std::move(config)) { reset(0); 
 
 Nav2dEnv::~Nav2dEnv() = default;
 
+Nav2dConfig nav2d_random_config() {
+  Nav2dConfig c;
+  c.obstacle_jitter = 0.2;
+  c.observe_obstacle = true;
+  return c;
+}
+
 void Nav2dEnv::reset(uint64_t seed) {
   // A fresh world per episode: Box2D keeps contact caches, and a rebuilt world makes every episode
   // depend on its seed alone.
@@ -26,12 +33,18 @@ void Nav2dEnv::reset(uint64_t seed) {
   b2ChainShape walls;
   walls.CreateLoop(corners, 4);
   ground->CreateFixture(&walls, 0.f);
-  b2CircleShape obstacle;
-  obstacle.m_radius = static_cast<float>(config_.obstacle_radius);
-  ground->CreateFixture(&obstacle, 0.f);
-
   std::mt19937_64 rng(seed);
   std::uniform_real_distribution<double> u(-config_.start_half, config_.start_half);
+  obstacle_center_ = Vec2::Zero();
+  if (config_.obstacle_jitter > 0) {
+    std::uniform_real_distribution<double> j(-config_.obstacle_jitter, config_.obstacle_jitter);
+    obstacle_center_ = Vec2(j(rng), j(rng));
+  }
+  b2CircleShape obstacle;
+  obstacle.m_radius = static_cast<float>(config_.obstacle_radius);
+  obstacle.m_p.Set(static_cast<float>(obstacle_center_.x()), static_cast<float>(obstacle_center_.y()));
+  ground->CreateFixture(&obstacle, 0.f);
+
   const double x = config_.start_center.x() + u(rng), y = config_.start_center.y() + u(rng);
   b2BodyDef agent_def;
   agent_def.type = b2_dynamicBody;
@@ -65,8 +78,9 @@ Vec2 Nav2dEnv::velocity() const {
 
 Vec Nav2dEnv::observation() const {
   const Vec2 p = position(), v = velocity();
-  Vec o(4);
-  o << static_cast<float>(p.x()), static_cast<float>(p.y()), static_cast<float>(v.x()), static_cast<float>(v.y());
+  Vec o(obs_dim());
+  o.head(4) << static_cast<float>(p.x()), static_cast<float>(p.y()), static_cast<float>(v.x()), static_cast<float>(v.y());
+  if (config_.observe_obstacle) o.tail(2) << static_cast<float>(obstacle_center_.x()), static_cast<float>(obstacle_center_.y());
   return o;
 }
 
@@ -128,7 +142,7 @@ void Nav2dEnv::set_agent(const Vec2& position, const Vec2& velocity) {
 
 bool Nav2dEnv::is_free(const Vec2& p) const {
   const double r = config_.agent_radius;
-  return p.norm() > config_.obstacle_radius + r && p.cwiseAbs().maxCoeff() < config_.arena_half - r;
+  return (p - obstacle_center_).norm() > config_.obstacle_radius + r && p.cwiseAbs().maxCoeff() < config_.arena_half - r;
 }
 
 std::string region_name(Nav2dRegion r) {

@@ -2,7 +2,7 @@
 //
 // A round agent in a walled square arena goes from a start region on the left to a goal on the right
 // around a round obstacle in the middle, clockwise (over the top) or counter-clockwise (underneath).
-//   observation (4): agent x, y [m], vx, vy [m/s]
+//   observation (4): agent x, y [m], vx, vy [m/s]  (+ obstacle centre x, y [m] when observed)
 //   action      (2): target position x, y [m]; a proportional controller turns it into a velocity
 // An episode ends at the goal (success) or at the time limit.
 #pragma once
@@ -37,15 +37,21 @@ struct Nav2dConfig {
   double hz = 20.0;                // control rate
   int substeps = 4;                // physics steps per control step
   int time_limit = 200;            // T_L [steps]
+  double obstacle_jitter = 0.0;    // the obstacle centre is drawn per episode from +-jitter in x and y [m]
+  bool observe_obstacle = false;   // append the obstacle centre to the observation (6 values instead of 4)
 };
+
+/// The randomised variant used for interactive learning: the obstacle moves up to 0.2 m per episode
+/// and its centre is part of the observation, so a policy must generalise from its demonstrations.
+Nav2dConfig nav2d_random_config();
 
 class Nav2dEnv : public Env {
  public:
   explicit Nav2dEnv(Nav2dConfig config = {});
   ~Nav2dEnv() override;
 
-  std::string name() const override { return "nav2d"; }
-  int obs_dim() const override { return 4; }
+  std::string name() const override { return config_.observe_obstacle ? "nav2d_random" : "nav2d"; }
+  int obs_dim() const override { return config_.observe_obstacle ? 6 : 4; }
   int action_dim() const override { return 2; }
   int time_limit() const override { return limit_; }
   void set_time_limit(int steps) override { limit_ = steps; }
@@ -66,11 +72,14 @@ class Nav2dEnv : public Env {
   void set_agent(const Vec2& position, const Vec2& velocity);
   /// True if a disc of the agent's radius at `p` overlaps neither the obstacle nor the walls.
   bool is_free(const Vec2& p) const;
+  /// The obstacle centre of this episode.
+  const Vec2& obstacle_center() const { return obstacle_center_; }
 
  private:
   Nav2dConfig config_;
   std::unique_ptr<b2World> world_;
   b2Body* agent_ = nullptr;
+  Vec2 obstacle_center_{0, 0};
   int steps_ = 0;
   int limit_ = 0;
   bool success_ = false;

@@ -25,28 +25,31 @@ void Nav2dExpert::reset(uint64_t seed) {
   current_ = std::uniform_real_distribution<double>(0, 1)(rng) < p_clockwise_ ? Mode::kClockwise : Mode::kCounterClockwise;
 }
 
-Vec2 Nav2dExpert::target(const Vec2& p, Mode mode) const {
-  const Vec2 to_goal = config_.goal - p;
+Vec2 Nav2dExpert::target(const Vec2& position, Mode mode, const Vec2& center) const {
+  // Work in the obstacle's frame.
+  const Vec2 p = position - center;
+  const Vec2 goal = config_.goal - center;
+  const Vec2 to_goal = goal - p;
   // Straight to the goal when the segment clears the obstacle with a margin.
   const double len2 = to_goal.squaredNorm();
   const double t = len2 > 0 ? std::clamp(-p.dot(to_goal) / len2, 0.0, 1.0) : 0.0;
   const double clearance = (p + t * to_goal).norm();
   if (clearance > config_.obstacle_radius + config_.agent_radius + 0.05) {
     const double d = to_goal.norm();
-    return d <= lookahead ? config_.goal : Vec2(p + to_goal * (lookahead / d));
+    return center + (d <= lookahead ? goal : Vec2(p + to_goal * (lookahead / d)));
   }
   const double r = std::max(p.norm(), 1e-6);
   const Vec2 radial = p / r;
   // Clockwise decreases the polar angle: from the start on the left it goes over the top.
   const Vec2 tangent = mode == Mode::kClockwise ? Vec2(radial.y(), -radial.x()) : Vec2(-radial.y(), radial.x());
   const Vec2 dir = (tangent + radial_gain * (orbit_radius - r) * radial).normalized();
-  return p + lookahead * dir;
+  return center + p + lookahead * dir;
 }
 
 Vec Nav2dExpert::act(const Env& env) {
   const auto* nav = dynamic_cast<const Nav2dEnv*>(&env);
   if (!nav) throw Error("nav2d expert: it drives a nav2d env, got '" + env.name() + "'");
-  const Vec2 t = target(nav->position(), current_);
+  const Vec2 t = target(nav->position(), current_, nav->obstacle_center());
   Vec a(2);
   a << static_cast<float>(t.x()), static_cast<float>(t.y());
   return a;

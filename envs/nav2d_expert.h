@@ -22,8 +22,9 @@ class Nav2dExpert : public Expert {
 
   /// The mode of the current episode (never kMixed after reset).
   Mode episode_mode() const { return current_; }
-  /// The target the expert commands at position p in a given (non-mixed) mode.
-  Vec2 target(const Vec2& p, Mode mode) const;
+  /// The target the expert commands at position p in a given (non-mixed) mode, with the obstacle
+  /// centred at `center`.
+  Vec2 target(const Vec2& p, Mode mode, const Vec2& center = Vec2::Zero()) const;
 
   double orbit_radius = 0.65;  // radius of the path around the obstacle [m]
   double lookahead = 0.15;     // distance from the agent to the commanded target [m]

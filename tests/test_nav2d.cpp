@@ -65,6 +65,23 @@ TEST(Nav2dExpert, SucceedsInBothModesFromSeededStarts) {
   }
 }
 
+TEST(Nav2dExpert, SucceedsWhenTheObstacleMoves) {
+  Nav2dEnv env(nav2d_random_config());
+  EXPECT_EQ(env.obs_dim(), 6);
+  for (auto mode : {Nav2dExpert::Mode::kClockwise, Nav2dExpert::Mode::kCounterClockwise}) {
+    Nav2dExpert expert(mode, nav2d_random_config());
+    int ok = 0;
+    double moved = 0;
+    for (uint64_t seed = 0; seed < 100; ++seed) {
+      ok += run_expert(env, expert, seed).success;
+      moved = std::max(moved, env.obstacle_center().norm());
+      EXPECT_EQ(env.observation().tail(2).cast<double>(), env.obstacle_center().cast<float>().cast<double>());
+    }
+    EXPECT_GE(ok, 98) << expert.name();
+    EXPECT_GT(moved, 0.1);  // the obstacle really moves between episodes
+  }
+}
+
 TEST(Nav2dExpert, MixedDataHasBothModes) {
   Nav2dEnv env;
   Nav2dExpert expert(Nav2dExpert::Mode::kMixed);

@@ -80,6 +80,7 @@ class ScriptedMethod : public Method {
     return d;
   }
   float threshold() const override { return 0.5f; }
+  void save(const std::string&) const override {}
   std::vector<int> update_sizes;
 
  private:

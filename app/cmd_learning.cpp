@@ -1,0 +1,77 @@
+// diffdagger dagger | eval: interactive learning and the paper's evaluation.
+#include <fmt/format.h>
+
+#include "app/commands.h"
+#include "app/experiments.h"
+
+namespace dd::app {
+namespace {
+
+// --task picks the preset of the same name (push: the two-expert variant); --config overrides it.
+ExperimentConfig resolve_config(const std::string& task, const std::string& config_file) {
+  if (!config_file.empty()) {
+    ExperimentConfig c = load_experiment_config(config_file);
+    if (!task.empty() && c.task != task)
+      throw Error(config_file + ": preset '" + c.preset + "' is for task '" + c.task + "', not '" + task + "'");
+    return c;
+  }
+  return preset(task == "push" ? "push_2experts" : task);
+}
+
+}  // namespace
+
+Command add_dagger(CLI::App& app) {
+  auto* cmd = app.add_subcommand("dagger", "One interactive-learning run, headless, with the scripted expert");
+  struct Opts {
+    std::string task = "nav2d", config, method = "diff", out, expert = "mixed";
+    uint64_t seed = 0;
+  };
+  auto o = std::make_shared<Opts>();
+  cmd->add_option("--task", o->task, "task: nav2d (stack, push, plug: with the MuJoCo tasks)")->capture_default_str();
+  cmd->add_option("--method", o->method, "query rule")->capture_default_str()->check(CLI::IsMember({"diff", "ensemble", "thrifty", "bc"}));
+  cmd->add_option("--out", o->out, "output folder: dataset.hdf5, checkpoints/, queries.jsonl, config.json")->required();
+  cmd->add_option("--config", o->config, "YAML config file overriding the task's preset");
+  cmd->add_option("--expert", o->expert, "expert mode (nav2d: cw, ccw, mixed)")->capture_default_str();
+  cmd->add_option("--seed", o->seed, "random seed")->capture_default_str();
+  return [o] {
+    ExperimentConfig c = resolve_config(o->task, o->config);
+    c.dagger.seed = o->seed;
+    DaggerRunOptions ro;
+    ro.method = o->method;
+    ro.out = o->out;
+    ro.expert_mode = o->expert;
+    const DaggerRunResult r = run_dagger(c, ro);
+    fmt::print("{} on {}: {} episodes, {} expert demonstrations ({} interventions: {} queries, {} time-outs), {} updates\n"
+               "wall-clock: training {:.1f} s, threshold setting {:.1f} s, inference {:.1f} s\n"
+               "data set {}, checkpoints in {}/checkpoints, query log {}/queries.jsonl\n",
+               o->method, c.task, r.episodes, r.expert_demos, r.interventions, r.queries, r.timeouts, r.updates, r.train_s,
+               r.threshold_s, r.inference_s, r.dataset, o->out, o->out);
+    return 0;
+  };
+}
+
+Command add_eval(CLI::App& app) {
+  auto* cmd = app.add_subcommand("eval", "RQ1-RQ3 of the paper for every method on a task, headless");
+  struct Opts {
+    std::string task = "nav2d", config;
+    EvalOptions eval;
+    bool quick = false;
+  };
+  auto o = std::make_shared<Opts>();
+  cmd->add_option("--task", o->task, "task")->capture_default_str();
+  cmd->add_option("--out", o->eval.out, "output folder")->capture_default_str();
+  cmd->add_option("--config", o->config, "YAML config file overriding the task's preset");
+  cmd->add_flag("--quick", o->quick, "tiny budgets, for a smoke test (minutes)");
+  cmd->add_option("--seeds", o->eval.seeds, "seeds per method")->capture_default_str()->check(CLI::Range(1, 20));
+  cmd->add_option("--episodes", o->eval.episodes, "rollouts per measurement")->capture_default_str()->check(CLI::PositiveNumber);
+  cmd->add_option("--methods", o->eval.methods, "methods to compare")->delimiter(',')->check(CLI::IsMember({"diff", "ensemble", "thrifty", "bc"}));
+  return [o] {
+    ExperimentConfig c = resolve_config(o->task, o->config);
+    EvalOptions e = o->eval;
+    if (o->quick) e.apply_quick(c);
+    run_eval(c, e);
+    return 0;
+  };
+}
+
+}  // namespace dd::app

@@ -1,0 +1,404 @@
+#include "app/experiments.h"
+
+#include <fmt/format.h>
+#include <spdlog/spdlog.h>
+
+#include <chrono>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <nlohmann/json.hpp>
+
+#include "core/dataset.h"
+#include "core/evaluation.h"
+#include "core/progress.h"
+#include "core/session.h"
+#include "envs/registry.h"
+#include "ui/plot.h"
+
+namespace dd::app {
+namespace {
+
+namespace fs = std::filesystem;
+
+void make_dirs(const std::string& dir) {
+  std::error_code ec;
+  fs::create_directories(dir, ec);
+  if (ec) throw Error(dir + ": could not create the folder: " + ec.message());
+}
+
+void write_text(const std::string& path, const std::string& text) {
+  std::ofstream f(path);
+  f << text;
+  f.flush();
+  if (!f) throw Error(path + ": could not write (disk full or no permission?)");
+}
+
+// Writes one JSON object per session event (progress ticks left out), flushed line by line so a
+// crash keeps everything up to the moment.
+class EventLog {
+ public:
+  explicit EventLog(const std::string& path) : path_(path), f_(path, std::ios::app) {
+    if (!f_) throw Error(path + ": could not open the query log");
+  }
+  void operator()(const SessionEvent& e) {
+    if (e.kind == EventKind::kUpdateProgress) return;
+    nlohmann::json j{{"event", to_string(e.kind)}, {"episode", e.episode}, {"step", e.step}, {"control", to_string(e.control)}};
+    if (e.kind == EventKind::kDecision) {
+      j["score"] = e.score;
+      j["threshold"] = e.threshold;
+      j["violation"] = e.violation;
+      j["run"] = e.run;
+      j["inference_ms"] = e.inference_s * 1e3;
+      if (e.risk_q >= 0) j["risk_q"] = e.risk_q;
+    }
+    if (e.kind == EventKind::kEpisodeEnd) j["success"] = e.success;
+    if (e.kind == EventKind::kUpdateFinished) {
+      j["train_s"] = e.report.train_s;
+      j["threshold_s"] = e.report.threshold_s;
+      j["threshold"] = e.report.threshold;
+      j["pairs"] = e.report.pairs;
+    }
+    j["expert_demos"] = e.expert_demos;
+    j["interventions"] = e.interventions;
+    f_ << j.dump() << '\n';
+    f_.flush();
+    if (!f_) throw Error(path_ + ": could not append to the query log (disk full?)");
+  }
+
+ private:
+  std::string path_;
+  std::ofstream f_;
+};
+
+std::pair<double, double> mean_std(const std::vector<double>& v) {
+  if (v.empty()) return {NAN, NAN};
+  double m = 0, s = 0;
+  for (double x : v) m += x;
+  m /= v.size();
+  for (double x : v) s += (x - m) * (x - m);
+  return {m, std::sqrt(s / v.size())};
+}
+
+double mean(const std::vector<double>& v) { return mean_std(v).first; }
+
+// Expert demonstrations for training without a session (RQ1).
+std::vector<Episode> collect_demos(const std::string& task, const std::string& mode, int n, uint64_t seed) {
+  auto env = make_env(task);
+  auto expert = make_expert(task, mode);
+  std::vector<Episode> out;
+  for (int e = 0; static_cast<int>(out.size()) < n && e < 10 * n; ++e) {
+    const uint64_t s = seed * 1000033ull + 777 + static_cast<uint64_t>(e);
+    env->reset(s);
+    expert->reset(s);
+    std::vector<Vec> obs, act;
+    bool done = false;
+    while (!done) {
+      obs.push_back(env->observation());
+      act.push_back(expert->act(*env));
+      done = env->step(act.back()).done;
+    }
+    if (!env->success()) continue;
+    Episode ep{Mat(static_cast<Eigen::Index>(obs.size()), env->obs_dim()), Mat(static_cast<Eigen::Index>(act.size()), env->action_dim())};
+    for (size_t i = 0; i < obs.size(); ++i) {
+      ep.obs.row(static_cast<Eigen::Index>(i)) = obs[i].transpose();
+      ep.actions.row(static_cast<Eigen::Index>(i)) = act[i].transpose();
+    }
+    out.push_back(std::move(ep));
+  }
+  return out;
+}
+
+// Robot-only episodes recorded for Thrifty's critic.
+std::vector<RecordedEpisode> robot_rollouts(Env& env, Method& m, int n, int time_limit, int action_steps, uint64_t seed) {
+  std::vector<RecordedEpisode> out;
+  for (int e = 0; e < n; ++e) {
+    env.reset(seed + static_cast<uint64_t>(e));
+    env.set_time_limit(time_limit);
+    std::vector<Vec> obs, act;
+    bool done = false;
+    uint64_t k = 0;
+    while (!done) {
+      const MethodDecision d = m.decide(env.observation(), seed * 31 + k++);
+      for (int i = 0; i < action_steps && !done; ++i) {
+        obs.push_back(env.observation());
+        act.push_back(d.chunk.row(i).transpose());
+        done = env.step(act.back()).done;
+      }
+    }
+    RecordedEpisode r;
+    r.obs.resize(static_cast<Eigen::Index>(obs.size()), env.obs_dim());
+    r.actions.resize(static_cast<Eigen::Index>(act.size()), env.action_dim());
+    for (size_t i = 0; i < obs.size(); ++i) {
+      r.obs.row(static_cast<Eigen::Index>(i)) = obs[i].transpose();
+      r.actions.row(static_cast<Eigen::Index>(i)) = act[i].transpose();
+    }
+    r.success = env.success();
+    r.source = "robot";
+    out.push_back(std::move(r));
+  }
+  return out;
+}
+
+std::string method_title(const std::string& m) {
+  if (m == "diff") return "Diff-DAgger";
+  if (m == "ensemble") return "Ensemble-DAgger";
+  if (m == "thrifty") return "Thrifty-DAgger";
+  if (m == "bc") return "BC";
+  return m;
+}
+
+const ui::Rgb kMethodColors[] = {{60, 110, 210}, {235, 120, 50}, {150, 90, 190}, {130, 130, 130}};
+
+ui::Rgb method_color(const std::string& m) {
+  if (m == "diff") return kMethodColors[0];
+  if (m == "ensemble") return kMethodColors[1];
+  if (m == "thrifty") return kMethodColors[2];
+  return kMethodColors[3];
+}
+
+}  // namespace
+
+int bc_budget_factor(const DaggerConfig& d) {
+  return 1 + (d.final_demos - d.initial_demos + d.demos_per_update - 1) / d.demos_per_update;
+}
+
+DaggerRunResult run_dagger(const ExperimentConfig& config, const DaggerRunOptions& o, std::unique_ptr<Method>* method_out) {
+  config.validate();
+  if (o.out.empty()) throw Error("dagger: an output folder is required (--out)");
+  make_dirs(o.out + "/checkpoints");
+  DaggerRunResult result;
+  result.dataset = o.out + "/dataset.hdf5";
+  if (fs::exists(result.dataset))
+    throw Error(result.dataset + ": already exists; a run never mixes its data into an earlier run's (choose another --out)");
+  write_text(o.out + "/config.json", to_json_text(config) + "\n");
+
+  auto env = make_env(config.task);
+  auto expert = make_expert(config.task, o.expert_mode);
+  auto method = make_method(o.method, config.policy, config.method, config.dagger.seed);
+  DatasetWriter writer(result.dataset, env_args(config.task));
+  TrainConfig train = config.train;
+  if (!method->gated()) train.steps *= bc_budget_factor(config.dagger);
+  DaggerSession session(*env, *expert, *method, config.dagger, train, &writer);
+  EventLog log(o.out + "/queries.jsonl");
+  session.add_observer([&log](const SessionEvent& e) { log(e); });
+  session.add_observer([&](const SessionEvent& e) {
+    if (e.kind == EventKind::kQuery) ++result.queries;
+    if (e.kind == EventKind::kTimeout) ++result.timeouts;
+    if (e.kind == EventKind::kEpisodeEnd && !o.quiet) {
+      const char* how = e.control == Control::kRobot ? (e.success ? "robot succeeded" : "robot failed")
+                        : e.control == Control::kExpertDemo ? "expert demonstration"
+                        : e.control == Control::kExpertQuery ? "robot asked, expert finished"
+                                                             : "time limit, expert finished";
+      fmt::print(stderr, "episode {:3}: {:30} ({} steps)  demos {}/{}\n", e.episode, how, e.step, e.expert_demos,
+                 config.dagger.final_demos);
+    }
+  });
+
+  while (!session.done()) {
+    if (session.update_pending()) {
+      const double inference = session.inference_s_since_update();
+      {
+        ProgressBar bar(fmt::format("update {} ({} demos)", session.updates() + 1, session.expert_demos()), "loss");
+        session.run_update(o.quiet ? ProgressFn{} : bar.fn());
+      }
+      const UpdateReport& r = session.reports().back();
+      if (session.updates() > 1) result.iteration_inference_s.push_back(inference);
+      result.iteration_train_s.push_back(r.train_s);
+      result.iteration_threshold_s.push_back(r.threshold_s);
+      const std::string dir = o.out + "/checkpoints/update_" + std::to_string(session.updates());
+      make_dirs(dir);
+      method->save(dir);
+      if (!o.quiet)
+        fmt::print(stderr, "update {}: {} pairs, train {:.1f} s, threshold {:.4g} set in {:.1f} s\n", session.updates(), r.pairs,
+                   r.train_s, r.threshold, r.threshold_s);
+      continue;
+    }
+    session.tick();
+  }
+  result.episodes = session.episode();
+  result.expert_demos = session.expert_demos();
+  result.interventions = session.interventions();
+  result.updates = session.updates();
+  for (double v : result.iteration_train_s) result.train_s += v;
+  for (double v : result.iteration_threshold_s) result.threshold_s += v;
+  for (double v : result.iteration_inference_s) result.inference_s += v;
+  if (method_out) *method_out = std::move(method);
+  return result;
+}
+
+void EvalOptions::apply_quick(ExperimentConfig& c) {
+  quick = true;
+  episodes = 8;
+  c.method.members = 3;  // a smoke test: ensembles of 3, not the method's 5
+  c.train.steps = 50;
+  c.train.warmup_steps = 10;
+  c.dagger.initial_demos = 3;
+  c.dagger.final_demos = 7;
+  c.dagger.demos_per_update = 2;
+  c.method.calibration_pairs = 100;
+  c.method.loss_samples = 128;
+  c.method.critic.steps = 100;
+  c.rq1_demos = 2;
+}
+
+void run_eval(const ExperimentConfig& config, const EvalOptions& o) {
+  config.validate();
+  make_dirs(o.out);
+  write_text(o.out + "/config.json", to_json_text(config) + "\n");
+  const auto t_start = std::chrono::steady_clock::now();
+  struct Row {
+    std::vector<double> tpr, tnr, f1, acc, rq1_success, success, train, threshold, inference;
+  };
+  std::map<std::string, Row> rows;
+  auto env = make_env(config.task);
+  const DaggerConfig& d = config.dagger;
+
+  for (int s = 0; s < o.seeds; ++s) {
+    ExperimentConfig c = config;
+    c.dagger.seed = config.dagger.seed + static_cast<uint64_t>(s);
+    const uint64_t eval_seed = 900000 + 1000 * static_cast<uint64_t>(s);
+    for (const std::string& name : o.methods) {
+      Row& row = rows[name];
+      // RQ1: a policy trained on N_D demonstrations, rolled out without intervention.
+      if (name != "bc") {
+        auto m = make_method(name, c.policy, c.method, c.dagger.seed);
+        const auto demos = collect_demos(c.task, "mixed", c.rq1_demos, c.dagger.seed);
+        {
+          ProgressBar bar(fmt::format("[seed {}] RQ1 {:8} train", s, name), "loss");
+          m->update(demos, {}, c.train, bar.fn());
+        }
+        if (name == "thrifty") {  // the critic learns from robot rollouts too
+          const auto robot = robot_rollouts(*env, *m, std::max(5, o.episodes / 5), d.time_limit, d.action_steps, eval_seed + 500);
+          m->update(demos, robot, c.train);
+        }
+        std::vector<RolloutResult> results;
+        {
+          ProgressBar bar(fmt::format("[seed {}] RQ1 {:8} rollouts", s, name), "success");
+          results = evaluate_rollouts(*env, *m, o.episodes, d.time_limit, d.patience, d.action_steps, eval_seed, bar.fn());
+        }
+        const FailurePrediction p = failure_prediction(results);
+        row.tpr.push_back(p.tpr);
+        row.tnr.push_back(p.tnr);
+        row.f1.push_back(p.f1);
+        row.acc.push_back(p.accuracy);
+        row.rq1_success.push_back(success_rate(results));
+      }
+      // RQ2 and RQ3: interactive learning to N_f, then rollouts of the final policy.
+      DaggerRunOptions ro;
+      ro.method = name;
+      ro.out = o.out + "/runs/" + name + "_seed" + std::to_string(s);
+      ro.quiet = true;
+      fs::remove_all(ro.out);
+      std::unique_ptr<Method> trained;
+      fmt::print(stderr, "[seed {}] RQ2 {:8} interactive learning to {} demonstrations...\n", s, name, d.final_demos);
+      const DaggerRunResult run = run_dagger(c, ro, &trained);
+      std::vector<RolloutResult> results;
+      {
+        ProgressBar bar(fmt::format("[seed {}] RQ2 {:8} rollouts", s, name), "success");
+        results = evaluate_rollouts(*env, *trained, o.episodes, d.time_limit, d.patience, d.action_steps, eval_seed + 50000, bar.fn());
+      }
+      row.success.push_back(success_rate(results));
+      row.train.push_back(mean(run.iteration_train_s));
+      row.threshold.push_back(mean(run.iteration_threshold_s));
+      row.inference.push_back(run.iteration_inference_s.empty() ? 0.0 : mean(run.iteration_inference_s));
+      fmt::print(stderr, "[seed {}] {:8} success {:.2f}; {} interventions ({} queries, {} time-outs) in {} episodes\n", s, name,
+                 row.success.back(), run.interventions, run.queries, run.timeouts, run.episodes);
+    }
+  }
+
+  // CSV files: the columns the issue names first, spreads over seeds after them.
+  std::string rq1 = "method,tpr,tnr,f1,acc,tpr_std,tnr_std,f1_std,acc_std,success_rate,seeds,episodes\n";
+  std::string rq2 = "method,success_rate,n,success_rate_std,seeds\n";
+  std::string rq3 = "method,train_s,threshold_s,inference_s,train_s_std,threshold_s_std,inference_s_std,seeds\n";
+  for (const std::string& name : o.methods) {
+    const Row& r = rows[name];
+    if (!r.tpr.empty()) {
+      rq1 += fmt::format("{},{:.3f},{:.3f},{:.3f},{:.3f},{:.3f},{:.3f},{:.3f},{:.3f},{:.3f},{},{}\n", name, mean_std(r.tpr).first,
+                         mean_std(r.tnr).first, mean_std(r.f1).first, mean_std(r.acc).first, mean_std(r.tpr).second,
+                         mean_std(r.tnr).second, mean_std(r.f1).second, mean_std(r.acc).second, mean(r.rq1_success), o.seeds,
+                         o.episodes);
+    }
+    rq2 += fmt::format("{},{:.3f},{},{:.3f},{}\n", name, mean_std(r.success).first, o.episodes * o.seeds, mean_std(r.success).second,
+                       o.seeds);
+    rq3 += fmt::format("{},{:.3f},{:.3f},{:.3f},{:.3f},{:.3f},{:.3f},{}\n", name, mean_std(r.train).first, mean_std(r.threshold).first,
+                       mean_std(r.inference).first, mean_std(r.train).second, mean_std(r.threshold).second,
+                       mean_std(r.inference).second, o.seeds);
+  }
+  write_text(o.out + "/rq1.csv", rq1);
+  write_text(o.out + "/rq2.csv", rq2);
+  write_text(o.out + "/rq3.csv", rq3);
+
+  // Plots.
+  auto bars = [&](const std::string& title, const std::string& label, auto value, bool gated_only) {
+    ui::BarPanel p;
+    p.title = title;
+    p.y_label = label;
+    p.width = 480;
+    for (const std::string& name : o.methods) {
+      if (gated_only && name == "bc") continue;
+      const auto [m, sd] = value(rows[name]);
+      p.categories.push_back(method_title(name));
+      p.values.push_back(m);
+      p.errors.push_back(sd);
+      p.colors.push_back(method_color(name));
+    }
+    return ui::draw_bars(p);
+  };
+  const std::string caption = fmt::format("{} ({}), mean +- std over {} seed(s), {} rollouts each", config.task, config.preset, o.seeds, o.episodes);
+  ui::write_png(o.out + "/rq1_failure_prediction.png",
+                ui::hstack({bars("RQ1: F1 of queries vs failures", "F1", [](const Row& r) { return mean_std(r.f1); }, true),
+                            bars("RQ1: accuracy", "accuracy", [](const Row& r) { return mean_std(r.acc); }, true)},
+                           caption));
+  ui::write_png(o.out + "/rq2_success.png",
+                ui::hstack({bars(fmt::format("RQ2: success after N_f = {}", d.final_demos), "success rate",
+                                 [](const Row& r) { return mean_std(r.success); }, false)},
+                           caption));
+  ui::write_png(o.out + "/rq3_wallclock.png",
+                ui::hstack({bars("RQ3: training per iteration", "seconds", [](const Row& r) { return mean_std(r.train); }, false),
+                            bars("RQ3: threshold setting", "seconds", [](const Row& r) { return mean_std(r.threshold); }, false),
+                            bars("RQ3: inference per iteration", "seconds", [](const Row& r) { return mean_std(r.inference); }, false)},
+                           caption));
+
+  // Report.
+  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count();
+  std::string md = fmt::format("# Evaluation on {} (preset {})\n\n{} seed(s), {} rollouts per measurement{}. "
+                               "Schedule: N_i {}, N_f {}, N_d {}, alpha {}, K {}, T_L {}, T_p {}, T_a {}; {} training steps per update.\n\n",
+                               config.task, config.preset, o.seeds, o.episodes, o.quick ? " (quick run: tiny budgets and 3-member ensembles, a smoke test; read with care)" : "",
+                               d.initial_demos, d.final_demos, d.demos_per_update, config.method.alpha, d.patience, d.time_limit,
+                               config.policy.horizon, config.policy.action_steps, config.train.steps);
+  md += fmt::format("## Table I: failure prediction (RQ1)\n\nPolicies trained on N_D = {} demonstrations, rolled out without intervention. "
+                    "Positive = the rule would have asked; actual positive = the episode failed.\n\n"
+                    "| Task | N_D | Method | TPR | TNR | F1 | Acc | rollout success |\n|---|---|---|---|---|---|---|---|\n",
+                    config.rq1_demos);
+  auto pm = [](const std::vector<double>& v) {
+    const auto [m, s] = mean_std(v);
+    return v.size() > 1 ? fmt::format("{:.2f} +- {:.2f}", m, s) : fmt::format("{:.2f}", m);
+  };
+  for (const std::string& name : o.methods) {
+    const Row& r = rows[name];
+    if (r.tpr.empty()) continue;
+    md += fmt::format("| {} | {} | {} | {} | {} | {} | {} | {} |\n", config.task, config.rq1_demos, method_title(name), pm(r.tpr), pm(r.tnr),
+                      pm(r.f1), pm(r.acc), pm(r.rq1_success));
+  }
+  md += fmt::format("\n## Table II: task performance (RQ2)\n\nSuccess rate of the final policy after interactive learning to N_f = {} "
+                    "expert demonstrations (BC: {} demonstrations, trained once with {}x the per-update budget, the gradient steps "
+                    "a DAgger run spends over its {} updates, since updates continue from the previous weights).\n\n"
+                    "| Task | Method | Success rate |\n|---|---|---|\n",
+                    d.final_demos, d.final_demos, bc_budget_factor(d), bc_budget_factor(d));
+  for (const std::string& name : o.methods) md += fmt::format("| {} | {} | {} |\n", config.task, method_title(name), pm(rows[name].success));
+  md += "\n## Wall-clock per DAgger iteration (RQ3)\n\n| Method | training [s] | threshold setting [s] | inference [s] |\n|---|---|---|---|\n";
+  for (const std::string& name : o.methods) {
+    const Row& r = rows[name];
+    md += fmt::format("| {} | {} | {} | {} |\n", method_title(name), pm(r.train), pm(r.threshold), pm(r.inference));
+  }
+  md += fmt::format("\nInference is the time spent deciding during the robot's rollouts between two updates. "
+                    "Plots: `rq1_failure_prediction.png`, `rq2_success.png`, `rq3_wallclock.png`. "
+                    "Each run's data set, checkpoints and query log are under `runs/`. Took {}.\n",
+                    format_duration(seconds));
+  write_text(o.out + "/report.md", md);
+  fmt::print("{}", md);
+}
+
+}  // namespace dd::app

@@ -1,0 +1,48 @@
+// The interactive-learning experiments behind `diffdagger dagger` and `diffdagger eval`.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "core/task_config.h"
+
+namespace dd::app {
+
+/// One interactive-learning run with the scripted expert.
+struct DaggerRunOptions {
+  std::string method = "diff";   // diff | ensemble | thrifty | bc
+  std::string out;               // folder: dataset.hdf5, checkpoints/, queries.jsonl, config.json
+  std::string expert_mode = "mixed";
+  bool quiet = false;            // no progress bars
+};
+
+struct DaggerRunResult {
+  int episodes = 0, expert_demos = 0, interventions = 0, queries = 0, timeouts = 0, updates = 0;
+  double train_s = 0, threshold_s = 0, inference_s = 0;  // summed over the run
+  std::vector<double> iteration_train_s, iteration_threshold_s, iteration_inference_s;
+  std::string dataset;
+};
+
+/// Policy updates continue from the previous weights, so a DAgger run's final policy has seen this
+/// many training budgets; BC, trained once, gets the same number of gradient steps.
+int bc_budget_factor(const DaggerConfig& dagger);
+
+/// Runs Algorithm 1 to N_f expert demonstrations; when `method_out` is given, the trained method is
+/// kept there for evaluation. Throws dd::Error on bad input.
+DaggerRunResult run_dagger(const ExperimentConfig& config, const DaggerRunOptions& options,
+                           std::unique_ptr<Method>* method_out = nullptr);
+
+/// `diffdagger eval`: RQ1, RQ2, RQ3 for every method.
+struct EvalOptions {
+  std::string out = "out/eval";
+  bool quick = false;
+  int seeds = 1;
+  int episodes = 100;   // rollouts per RQ1 / RQ2 measurement
+  std::vector<std::string> methods{"diff", "ensemble", "thrifty", "bc"};
+  void apply_quick(ExperimentConfig& config);
+};
+
+/// Writes report.md, rq1.csv, rq2.csv, rq3.csv and the PNG plots to options.out.
+void run_eval(const ExperimentConfig& config, const EvalOptions& options);
+
+}  // namespace dd::app

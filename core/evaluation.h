@@ -1,0 +1,40 @@
+// Rollouts without intervention, for the paper's RQ1 (failure prediction) and RQ2 (task performance):
+// the robot acts for the whole episode while the query rule only records whether it would have asked.
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include "core/env.h"
+#include "core/method.h"
+#include "core/progress.h"
+
+namespace dd {
+
+struct RolloutResult {
+  bool success = false;
+  bool queried = false;       // the rule would have asked (K violations in a row) at some point
+  int first_query_step = -1;  // env step of the first would-be query
+  int steps = 0;
+  int decisions = 0;
+  double inference_s = 0;     // time spent deciding
+};
+
+/// Runs `episodes` robot-only episodes from seeds seed, seed + 1, ... with time limit T_L.
+std::vector<RolloutResult> evaluate_rollouts(Env& env, Method& method, int episodes, int time_limit, int patience,
+                                             int action_steps, uint64_t seed, const ProgressFn& progress = {});
+
+/// The confusion matrix of queries against failures: positive = query, actual positive = failure.
+struct FailurePrediction {
+  int tp = 0, fp = 0, tn = 0, fn = 0;
+  double tpr = 0;  // queried failures / failures
+  double tnr = 0;  // unqueried successes / successes
+  double f1 = 0;
+  double accuracy = 0;
+};
+FailurePrediction failure_prediction(const std::vector<RolloutResult>& results);
+
+/// Fraction of successful rollouts.
+double success_rate(const std::vector<RolloutResult>& results);
+
+}  // namespace dd

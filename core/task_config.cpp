@@ -1,0 +1,223 @@
+#include "core/task_config.h"
+
+#include <yaml-cpp/yaml.h>
+
+#include <filesystem>
+#include <nlohmann/json.hpp>
+#include <set>
+
+namespace dd {
+namespace {
+
+using nlohmann::json;
+
+// YAML -> JSON, so that the strict JSON readers of config.cpp check every key.
+json to_json(const YAML::Node& n) {
+  switch (n.Type()) {
+    case YAML::NodeType::Map: {
+      json j = json::object();
+      for (const auto& kv : n) j[kv.first.as<std::string>()] = to_json(kv.second);
+      return j;
+    }
+    case YAML::NodeType::Sequence: {
+      json j = json::array();
+      for (const auto& v : n) j.push_back(to_json(v));
+      return j;
+    }
+    case YAML::NodeType::Scalar: {
+      const std::string s = n.Scalar();
+      if (n.Tag() == "!") return s;  // quoted
+      try {
+        size_t used = 0;
+        const long long i = std::stoll(s, &used);
+        if (used == s.size()) return i;
+      } catch (...) {
+      }
+      try {
+        size_t used = 0;
+        const double d = std::stod(s, &used);
+        if (used == s.size()) return d;
+      } catch (...) {
+      }
+      if (s == "true" || s == "True") return true;
+      if (s == "false" || s == "False") return false;
+      return s;
+    }
+    default: return nullptr;
+  }
+}
+
+template <typename T>
+void read(const json& j, const char* key, T& out, const std::string& where) {
+  auto it = j.find(key);
+  if (it == j.end()) return;
+  try {
+    out = it->template get<T>();
+  } catch (const json::exception& e) {
+    throw Error(where + "." + key + ": " + e.what());
+  }
+}
+
+void require_keys(const json& j, const std::set<std::string>& allowed, const std::string& where) {
+  if (!j.is_object()) throw Error(where + ": expected a mapping");
+  for (const auto& [k, v] : j.items())
+    if (!allowed.count(k)) throw Error(where + ": unknown key '" + k + "'");
+}
+
+void apply_dagger(const json& j, DaggerConfig& d) {
+  require_keys(j, {"initial_demos", "final_demos", "demos_per_update", "patience", "time_limit", "expert_time_limit", "action_steps",
+                   "max_episodes", "seed"},
+               "dagger");
+  read(j, "initial_demos", d.initial_demos, "dagger");
+  read(j, "final_demos", d.final_demos, "dagger");
+  read(j, "demos_per_update", d.demos_per_update, "dagger");
+  read(j, "patience", d.patience, "dagger");
+  read(j, "time_limit", d.time_limit, "dagger");
+  read(j, "expert_time_limit", d.expert_time_limit, "dagger");
+  read(j, "action_steps", d.action_steps, "dagger");
+  read(j, "max_episodes", d.max_episodes, "dagger");
+  read(j, "seed", d.seed, "dagger");
+}
+
+void apply_method(const json& j, MethodConfig& m) {
+  require_keys(j, {"alpha", "members", "loss_samples", "calibration_pairs", "risk_quantile", "critic_steps"}, "method");
+  read(j, "alpha", m.alpha, "method");
+  read(j, "members", m.members, "method");
+  read(j, "loss_samples", m.loss_samples, "method");
+  read(j, "calibration_pairs", m.calibration_pairs, "method");
+  read(j, "risk_quantile", m.risk_quantile, "method");
+  read(j, "critic_steps", m.critic.steps, "method");
+}
+
+json method_json(const MethodConfig& m) {
+  return json{{"alpha", m.alpha}, {"members", m.members}, {"loss_samples", m.loss_samples},
+              {"calibration_pairs", m.calibration_pairs}, {"risk_quantile", m.risk_quantile}, {"critic_steps", m.critic.steps}};
+}
+
+json dagger_json(const DaggerConfig& d) {
+  return json{{"initial_demos", d.initial_demos}, {"final_demos", d.final_demos}, {"demos_per_update", d.demos_per_update},
+              {"patience", d.patience}, {"time_limit", d.time_limit}, {"expert_time_limit", d.expert_time_limit},
+              {"action_steps", d.action_steps}, {"max_episodes", d.max_episodes}, {"seed", d.seed}};
+}
+
+// Table III row: T_p, T_a, T_d, N_i, N_f, N_d, alpha, K, T_L.
+ExperimentConfig table3(const std::string& name, const std::string& task, int obs, int act, int tp, int ta, int td, int ni, int nf,
+                        int nd, double alpha, int k, int tl) {
+  ExperimentConfig c;
+  c.preset = name;
+  c.task = task;
+  c.policy.obs_dim = obs;
+  c.policy.action_dim = act;
+  c.policy.horizon = tp;
+  c.policy.action_steps = ta;
+  c.policy.scheduler.num_train_timesteps = td;
+  c.policy.scheduler.num_inference_steps = td;
+  c.dagger.initial_demos = ni;
+  c.dagger.final_demos = nf;
+  c.dagger.demos_per_update = nd;
+  c.dagger.patience = k;
+  c.dagger.time_limit = tl;
+  c.dagger.action_steps = ta;
+  c.method.alpha = alpha;
+  return c;
+}
+
+}  // namespace
+
+void ExperimentConfig::validate() const {
+  policy.validate();
+  train.validate();
+  dagger.validate();
+  if (dagger.action_steps != policy.action_steps)
+    throw Error("dagger.action_steps (" + std::to_string(dagger.action_steps) + ") must equal policy.action_steps (" +
+                std::to_string(policy.action_steps) + ")");
+  if (!(method.alpha > 0 && method.alpha < 1)) throw Error("method.alpha: must be in (0, 1)");
+  if (method.members < 2) throw Error("method.members: must be >= 2");
+  if (method.loss_samples < 1) throw Error("method.loss_samples: must be >= 1");
+  if (rq1_demos < 1) throw Error("rq1_demos: must be >= 1");
+}
+
+std::vector<std::string> preset_names() { return {"nav2d", "nav2d_random", "stack", "push_1expert", "push_2experts", "plug"}; }
+
+ExperimentConfig preset(const std::string& name) {
+  ExperimentConfig c;
+  if (name == "nav2d") {
+    // Our own toy: small network and budget, chosen so a full evaluation fits in an hour on 2 cores.
+    c = table3(name, "nav2d", 4, 2, 16, 8, 16, 8, 24, 4, 0.99, 2, 200);
+    c.policy.unet = unet_preset("tiny");
+    c.train.steps = 500;
+    c.train.batch_size = 128;
+    c.train.lr = 1e-3;
+    c.train.warmup_steps = 50;
+    c.method.loss_samples = 512;
+    c.method.calibration_pairs = 600;
+    c.method.critic.steps = 600;
+    c.rq1_demos = 3;
+    c.dagger.max_episodes = 150;
+  } else if (name == "nav2d_random") {
+    // The toy with the obstacle moving per episode: few demonstrations do not cover it.
+    c = preset("nav2d");
+    c.preset = name;
+    c.task = "nav2d_random";
+    c.policy.obs_dim = 6;
+  } else if (name == "stack") {
+    // MuJoCo tasks: Table III schedules. Observation sizes are those of the state observations
+    // planned for them (joints, end-effector pose with 6-D rotation, gripper, object poses).
+    c = table3(name, "stack", 31, 10, 32, 8, 16, 20, 60, 4, 0.99, 2, 250);
+    c.rq1_demos = 30;
+  } else if (name == "push_1expert") {
+    c = table3(name, "push", 20, 7, 32, 2, 16, 20, 100, 4, 0.99, 1, 250);
+    c.rq1_demos = 40;
+  } else if (name == "push_2experts") {
+    c = table3(name, "push", 20, 7, 32, 2, 16, 20, 100, 4, 0.9, 2, 250);
+    c.rq1_demos = 50;
+  } else if (name == "plug") {
+    c = table3(name, "plug", 31, 10, 64, 8, 64, 20, 100, 8, 0.99, 2, 500);
+    c.rq1_demos = 100;
+  } else {
+    throw Error("unknown preset '" + name + "' (known: nav2d, nav2d_random, stack, push_1expert, push_2experts, plug)");
+  }
+  return c;
+}
+
+ExperimentConfig load_experiment_config(const std::string& path) {
+  if (!std::filesystem::exists(path)) throw Error(path + ": no such config file");
+  json j;
+  try {
+    j = to_json(YAML::LoadFile(path));
+  } catch (const YAML::Exception& e) {
+    throw Error(path + ": malformed YAML: " + e.what());
+  }
+  try {
+    require_keys(j, {"preset", "policy", "train", "dagger", "method", "rq1_demos"}, "config");
+    if (!j.contains("preset")) throw Error("config: missing key 'preset' (one of nav2d, stack, push_1expert, push_2experts, plug)");
+    ExperimentConfig c = preset(j.at("preset").get<std::string>());
+    if (j.contains("policy")) {
+      json merged = c.policy;
+      merged.merge_patch(j.at("policy"));
+      c.policy = merged.get<PolicyConfig>();
+    }
+    if (j.contains("train")) {
+      json merged = c.train;
+      merged.merge_patch(j.at("train"));
+      c.train = merged.get<TrainConfig>();
+    }
+    if (j.contains("dagger")) apply_dagger(j.at("dagger"), c.dagger);
+    if (j.contains("method")) apply_method(j.at("method"), c.method);
+    read(j, "rq1_demos", c.rq1_demos, "config");
+    c.validate();
+    return c;
+  } catch (const Error& e) {
+    throw Error(path + ": " + e.what());
+  } catch (const json::exception& e) {
+    throw Error(path + ": " + e.what());
+  }
+}
+
+std::string to_json_text(const ExperimentConfig& c) {
+  json j{{"preset", c.preset}, {"task", c.task}, {"policy", c.policy}, {"train", c.train},
+         {"dagger", dagger_json(c.dagger)}, {"method", method_json(c.method)}, {"rq1_demos", c.rq1_demos}};
+  return j.dump(2);
+}
+
+}  // namespace dd
