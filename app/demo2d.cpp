@@ -260,20 +260,8 @@ Demo2dResult run_demo2d(const Demo2dOptions& o) {
   }
 
   // 3. Thresholds at alpha over (a subset of) the training pairs, as the query rules would set them.
-  std::mt19937_64 rng(o.seed + 7);
-  const int n_cal = std::min(data.size(), o.quick ? 200 : 1000);
-  std::vector<int> pick(static_cast<size_t>(data.size()));
-  std::iota(pick.begin(), pick.end(), 0);
-  std::shuffle(pick.begin(), pick.end(), rng);
-  ChunkDataset cal;
-  cal.horizon = data.horizon;
-  cal.action_dim = data.action_dim;
-  cal.obs.resize(n_cal, data.obs_dim());
-  cal.chunks.resize(n_cal, data.chunks.cols());
-  for (int i = 0; i < n_cal; ++i) {
-    cal.obs.row(i) = data.obs.row(pick[static_cast<size_t>(i)]);
-    cal.chunks.row(i) = data.chunks.row(pick[static_cast<size_t>(i)]);
-  }
+  const ChunkDataset cal = data.subset(o.quick ? 200 : 1000, o.seed + 7);
+  const int n_cal = cal.size();
   float loss_threshold = 0, std_threshold = 0;
   {
     ProgressBar bar("[3/5] calibrate thresholds", "loss");

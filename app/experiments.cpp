@@ -346,7 +346,9 @@ void run_eval(const ExperimentConfig& config, const EvalOptions& o) {
     }
     return ui::draw_bars(p);
   };
-  const std::string caption = fmt::format("{} ({}), mean +- std over {} seed(s), {} rollouts each", config.task, config.preset, o.seeds, o.episodes);
+  const std::string caption =
+      o.seeds > 1 ? fmt::format("task {} (preset {}): mean +- std over {} seeds, {} rollouts each", config.task, config.preset, o.seeds, o.episodes)
+                  : fmt::format("task {} (preset {}): one seed, {} rollouts each", config.task, config.preset, o.episodes);
   ui::write_png(o.out + "/rq1_failure_prediction.png",
                 ui::hstack({bars("RQ1: F1 of queries vs failures", "F1", [](const Row& r) { return mean_std(r.f1); }, true),
                             bars("RQ1: accuracy", "accuracy", [](const Row& r) { return mean_std(r.acc); }, true)},

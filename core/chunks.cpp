@@ -1,5 +1,8 @@
 #include "core/chunks.h"
 
+#include <algorithm>
+#include <numeric>
+#include <random>
 #include <string>
 
 #include "core/config.h"
@@ -12,6 +15,24 @@ Mat ChunkDataset::chunk(int i) const {
 
 Mat ChunkDataset::action_rows() const {
   return Eigen::Map<const Mat>(chunks.data(), chunks.rows() * horizon, action_dim);
+}
+
+ChunkDataset ChunkDataset::subset(int n, uint64_t seed) const {
+  if (n <= 0 || n >= size()) return *this;
+  std::vector<int> idx(static_cast<size_t>(size()));
+  std::iota(idx.begin(), idx.end(), 0);
+  std::mt19937_64 rng(seed);
+  std::shuffle(idx.begin(), idx.end(), rng);
+  ChunkDataset s;
+  s.horizon = horizon;
+  s.action_dim = action_dim;
+  s.obs.resize(n, obs_dim());
+  s.chunks.resize(n, chunks.cols());
+  for (int i = 0; i < n; ++i) {
+    s.obs.row(i) = obs.row(idx[static_cast<size_t>(i)]);
+    s.chunks.row(i) = chunks.row(idx[static_cast<size_t>(i)]);
+  }
+  return s;
 }
 
 ChunkDataset ChunkDataset::from_episodes(const std::vector<Episode>& episodes, int horizon) {

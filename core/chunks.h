@@ -3,6 +3,7 @@
 // its last action.
 #pragma once
 
+#include <cstdint>
 #include <vector>
 
 #include "core/types.h"
@@ -28,6 +29,10 @@ struct ChunkDataset {
   Mat chunk(int i) const;
   /// All actions of all chunks as rows (pairs * horizon x action_dim), for fitting a normaliser.
   Mat action_rows() const;
+
+  /// At most n pairs drawn without replacement with `seed` (a copy of all of them when n <= 0 or
+  /// n >= size()), e.g. for calibrating a threshold on part of a large training set.
+  ChunkDataset subset(int n, uint64_t seed) const;
 
   /// Builds pairs from episodes. Throws Error on inconsistent shapes or non-finite values.
   static ChunkDataset from_episodes(const std::vector<Episode>& episodes, int horizon);

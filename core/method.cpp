@@ -2,8 +2,6 @@
 
 #include <chrono>
 #include <cmath>
-#include <numeric>
-#include <random>
 
 #include "core/ensemble.h"
 #include "core/gate.h"
@@ -15,25 +13,6 @@ namespace {
 
 using Clock = std::chrono::steady_clock;
 double since(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
-
-// At most n training pairs, drawn without replacement (all of them when n <= 0 or n >= size).
-ChunkDataset subsample(const ChunkDataset& d, int n, uint64_t seed) {
-  if (n <= 0 || n >= d.size()) return d;
-  std::vector<int> idx(static_cast<size_t>(d.size()));
-  std::iota(idx.begin(), idx.end(), 0);
-  std::mt19937_64 rng(seed);
-  std::shuffle(idx.begin(), idx.end(), rng);
-  ChunkDataset s;
-  s.horizon = d.horizon;
-  s.action_dim = d.action_dim;
-  s.obs.resize(n, d.obs_dim());
-  s.chunks.resize(n, d.chunks.cols());
-  for (int i = 0; i < n; ++i) {
-    s.obs.row(i) = d.obs.row(idx[static_cast<size_t>(i)]);
-    s.chunks.row(i) = d.chunks.row(idx[static_cast<size_t>(i)]);
-  }
-  return s;
-}
 
 class DiffMethod : public Method {
  public:
@@ -49,7 +28,7 @@ class DiffMethod : public Method {
     r.final_loss = train(policy_, data, train_config, progress).last_mean();
     r.train_s = since(t);
     t = Clock::now();
-    const ChunkDataset cal = subsample(data, config_.calibration_pairs, seed_ + ++updates_);
+    const ChunkDataset cal = data.subset(config_.calibration_pairs, seed_ + ++updates_);
     threshold_ = quantile(policy_.expected_losses(cal, seed_ * 31 + updates_, config_.loss_samples), config_.alpha);
     r.threshold_s = since(t);
     r.threshold = threshold_;
@@ -93,7 +72,7 @@ class EnsembleMethod : public Method {
     r.train_s = since(t);
     t = Clock::now();
     // The ensemble's threshold needs every member to sample at every calibration pair.
-    const ChunkDataset cal = subsample(data, config_.calibration_pairs, seed_ + ++updates_);
+    const ChunkDataset cal = data.subset(config_.calibration_pairs, seed_ + ++updates_);
     threshold_ = quantile(ensemble_.action_variance(cal.obs, seed_ * 31 + updates_), config_.alpha);
     r.threshold_s = since(t);
     r.threshold = threshold_;

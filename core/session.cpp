@@ -174,7 +174,12 @@ void DaggerSession::end_episode() {
   const bool out_of_episodes = config_.max_episodes > 0 && episode_ >= config_.max_episodes;
   if (expert_demos_ >= config_.final_demos || out_of_episodes) {
     finishing_ = true;
-    if (demos_at_last_update_ != expert_demos_) update_pending_ = true;
+    if (demos_at_last_update_ != expert_demos_) {
+      update_pending_ = true;  // a last update on everything, then done
+    } else if (!update_pending_) {
+      done_ = true;  // the policy already saw every demonstration
+      emit({EventKind::kDone});
+    }
   }
 }
 

@@ -2,6 +2,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <set>
 
 #include "core/chunks.h"
 #include "core/config.h"
@@ -33,6 +34,23 @@ TEST(ChunkDataset, RejectsInconsistentEpisodes) {
   c.actions(1, 0) = NAN;
   EXPECT_THROW(ChunkDataset::from_episodes({c}, 4), Error);
   EXPECT_THROW(ChunkDataset::from_episodes({}, 4), Error);
+}
+
+TEST(ChunkDataset, SubsetDrawsDistinctPairsReproducibly) {
+  Episode ep{Mat(20, 1), Mat(20, 1)};
+  for (int i = 0; i < 20; ++i) ep.obs(i, 0) = ep.actions(i, 0) = static_cast<float>(i);
+  const ChunkDataset d = ChunkDataset::from_episodes({ep}, 2);
+  const ChunkDataset s = d.subset(7, 3);
+  ASSERT_EQ(s.size(), 7);
+  std::set<float> seen;
+  for (int i = 0; i < 7; ++i) {
+    seen.insert(s.obs(i, 0));
+    EXPECT_EQ(s.chunks(i, 0), s.obs(i, 0));  // pairs stay together
+  }
+  EXPECT_EQ(seen.size(), 7u);
+  EXPECT_EQ(d.subset(7, 3).obs, s.obs);
+  EXPECT_EQ(d.subset(0, 3).size(), 20);
+  EXPECT_EQ(d.subset(50, 3).size(), 20);
 }
 
 TEST(Normalizer, MapsRangeToMinusOneOneAndBack) {

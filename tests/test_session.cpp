@@ -276,6 +276,42 @@ TEST(Session, BcDemonstratesNfEpisodesAndTrainsOnce) {
   EXPECT_EQ(s.interventions(), 0);
 }
 
+TEST(Session, StopsAtMaxEpisodesWhenTheRobotNeverNeedsHelp) {
+  LineEnv env;
+  ForwardExpert expert;
+  ScriptedMethod method({});  // never violates, always reaches the goal
+  DaggerConfig c = small_config();
+  c.final_demos = 5;
+  c.max_episodes = 6;
+  DaggerSession s(env, expert, method, c, no_training());
+  Recorder rec;
+  s.add_observer(rec.fn());
+  run_to_end(s);
+  EXPECT_TRUE(s.done());
+  EXPECT_EQ(s.episode(), 6);
+  EXPECT_EQ(s.expert_demos(), 1);
+  EXPECT_EQ(method.update_sizes, (std::vector<int>{1}));  // no needless retraining on the same data
+  EXPECT_EQ(rec.events.back().kind, EventKind::kDone);
+}
+
+TEST(Session, MaxEpisodesTriggersALastUpdateOnNewData) {
+  LineEnv env;
+  ForwardExpert expert;
+  std::deque<bool> v(5, false);  // episode 2: the robot succeeds
+  v.push_back(true);             // episode 3: asks at once (K = 1)
+  ScriptedMethod method(v);
+  DaggerConfig c = small_config();
+  c.final_demos = 10;
+  c.demos_per_update = 4;
+  c.patience = 1;
+  c.max_episodes = 3;
+  DaggerSession s(env, expert, method, c, no_training());
+  run_to_end(s);
+  EXPECT_TRUE(s.done());
+  EXPECT_EQ(s.interventions(), 1);
+  EXPECT_EQ(method.update_sizes, (std::vector<int>{1, 2}));
+}
+
 TEST(Session, RejectsBadSchedules) {
   LineEnv env;
   ForwardExpert expert;

@@ -99,14 +99,22 @@ Image draw_bars(const BarPanel& p) {
     const Rgb color = p.colors.empty() ? Rgb{90, 120, 200} : p.colors[static_cast<size_t>(i) % p.colors.size()];
     cv::rectangle(m, {cx - half, y_of(v)}, {cx + half, y_of(0)}, scalar(color), cv::FILLED);
     cv::rectangle(m, {cx - half, y_of(v)}, {cx + half, y_of(0)}, kInk, 1);
-    if (static_cast<size_t>(i) < p.errors.size() && std::isfinite(p.errors[i])) {
+    if (static_cast<size_t>(i) < p.errors.size() && std::isfinite(p.errors[i]) && p.errors[i] > 0) {
       const int y0 = y_of(std::max(0.0, v - p.errors[i])), y1 = y_of(v + p.errors[i]);
       cv::line(m, {cx, y0}, {cx, y1}, kInk, 2);
       cv::line(m, {cx - 8, y0}, {cx + 8, y0}, kInk, 2);
       cv::line(m, {cx - 8, y1}, {cx + 8, y1}, kInk, 2);
     }
-    text(m, fmt_num(v), {cx, y_of(v + (static_cast<size_t>(i) < p.errors.size() ? p.errors[i] : 0)) - 8}, 0.42, kInk, 1, true);
-    if (static_cast<size_t>(i) < p.categories.size()) text(m, p.categories[static_cast<size_t>(i)], {cx, area.y + area.height + 24}, 0.5, kInk, 1, true);
+    const double err = static_cast<size_t>(i) < p.errors.size() && std::isfinite(p.errors[i]) ? p.errors[i] : 0.0;
+    text(m, fmt_num(v), {cx, y_of(v + err) - 8}, 0.42, kInk, 1, true);
+    if (static_cast<size_t>(i) < p.categories.size()) {
+      // Shrink a label until it fits its slot.
+      const std::string& label = p.categories[static_cast<size_t>(i)];
+      double scale = 0.5;
+      int base = 0;
+      while (scale > 0.3 && cv::getTextSize(label, kFont, scale, 1, &base).width > slot - 6) scale -= 0.02;
+      text(m, label, {cx, area.y + area.height + 24}, scale, kInk, 1, true);
+    }
   }
   cv::line(m, {area.x, area.y}, {area.x, area.y + area.height}, kInk, 1);
   cv::line(m, {area.x, area.y + area.height}, {area.x + area.width, area.y + area.height}, kInk, 1);
