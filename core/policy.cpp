@@ -90,6 +90,23 @@ torch::Tensor DiffusionPolicy::Impl::expected_loss(const torch::Tensor& obs, con
 torch::Tensor DiffusionPolicy::Impl::sample(const torch::Tensor& obs, torch::Generator& gen) const {
   torch::NoGradGuard no_grad;
   const int64_t B = obs.size(0);
+  const std::vector<int64_t> ts = scheduler.inference_timesteps();
+  const auto n = static_cast<int64_t>(ts.size());
+  // Condition all n * B (timestep, row) pairs at once, timestep-major, and slice per step.
+  const torch::Tensor t_all = torch::tensor(ts, torch::kInt64).repeat_interleave(B);
+  const std::vector<torch::Tensor> films = ema->film(ema->condition(t_all, obs.repeat({n, 1})));
+  std::vector<torch::Tensor> step_films(films.size());
+  torch::Tensor x = torch::randn({B, config.horizon, config.action_dim}, gen, torch::kFloat32);
+  for (int64_t i = 0; i < n; ++i) {
+    for (size_t k = 0; k < films.size(); ++k) step_films[k] = films[k].narrow(0, i * B, B);
+    x = scheduler.step(ema->denoise(x, step_films), ts[static_cast<size_t>(i)], x, gen);
+  }
+  return x.clamp(-1.0, 1.0);
+}
+
+torch::Tensor DiffusionPolicy::Impl::sample_reference(const torch::Tensor& obs, torch::Generator& gen) const {
+  torch::NoGradGuard no_grad;
+  const int64_t B = obs.size(0);
   torch::Tensor x = torch::randn({B, config.horizon, config.action_dim}, gen, torch::kFloat32);
   for (const int64_t t : scheduler.inference_timesteps()) {
     const torch::Tensor out = ema->forward(x, torch::full({B}, t, torch::kInt64), obs);

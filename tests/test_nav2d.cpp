@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 #include <spdlog/spdlog.h>
 
+#include <cstdio>
 #include <cstring>
 
 #include "envs/nav2d.h"
@@ -60,6 +61,7 @@ TEST(Nav2dExpert, SucceedsInBothModesFromSeededStarts) {
       // Clockwise goes over the top of the obstacle, counter-clockwise underneath.
       right_side += mode == Nav2dExpert::Mode::kClockwise ? r.max_y > 0.5 : r.min_y < -0.5;
     }
+    std::printf("%s: %d/100 successful\n", expert.name().c_str(), ok);
     EXPECT_GE(ok, 98) << expert.name();
     EXPECT_EQ(right_side, 100) << expert.name();
   }
@@ -77,6 +79,7 @@ TEST(Nav2dExpert, SucceedsWhenTheObstacleMoves) {
       moved = std::max(moved, env.obstacle_center().norm());
       EXPECT_EQ(env.observation().tail(2).cast<double>(), env.obstacle_center().cast<float>().cast<double>());
     }
+    std::printf("%s with a moving obstacle: %d/100 successful\n", expert.name().c_str(), ok);
     EXPECT_GE(ok, 98) << expert.name();
     EXPECT_GT(moved, 0.1);  // the obstacle really moves between episodes
   }

@@ -43,6 +43,8 @@ TEST(Plot, FieldGreysOutBlockedCellsAndStacks) {
   EXPECT_GT(count_color(img, {120, 120, 120}, 2), 100);  // the blocked cell
   const Image both = hstack({img, img}, "caption");
   EXPECT_EQ(both.width, 2 * img.width);
+  const Image captioned = hstack({img}, std::string(200, 'x'));  // a caption wider than the panel
+  EXPECT_GT(captioned.width, img.width);
   EXPECT_GT(both.height, img.height);
 }
 

@@ -4,7 +4,10 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <algorithm>
+#include <cstdio>
 #include <memory>
+#include <numeric>
 
 #include "core/chunks.h"
 #include "core/gate.h"

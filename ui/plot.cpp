@@ -83,6 +83,7 @@ Image draw_bars(const BarPanel& p) {
     if (std::isfinite(p.values[i] + e)) hi = std::max(hi, p.values[i] + e);
   }
   if (hi <= 0) hi = 1;
+  hi *= 1.12;  // headroom for the value labels above the bars
   const double step = nice_step(hi, 5);
   hi = std::ceil(hi / step) * step;
   auto y_of = [&](double v) { return area.y + area.height - static_cast<int>(std::lround(v / hi * area.height)); };
@@ -201,8 +202,11 @@ Image hstack(const std::vector<Image>& images, const std::string& caption) {
     h = std::max(h, i.height);
   }
   const int cap = caption.empty() ? 0 : 34;
-  cv::Mat m(h + cap, std::max(w, 1), CV_8UC3, cv::Scalar(255, 255, 255));
-  int x = 0;
+  int base = 0;
+  const int caption_w = caption.empty() ? 0 : cv::getTextSize(caption, kFont, 0.45, 1, &base).width + 24;
+  const int width = std::max({w, caption_w, 1});
+  cv::Mat m(h + cap, width, CV_8UC3, cv::Scalar(255, 255, 255));
+  int x = (width - w) / 2;  // centre the panels when the caption is wider
   for (const auto& i : images) {
     to_mat(i).copyTo(m(cv::Rect(x, 0, i.width, i.height)));
     x += i.width;

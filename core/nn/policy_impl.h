@@ -30,7 +30,11 @@ struct DiffusionPolicy::Impl {
   torch::Tensor expected_loss(const torch::Tensor& obs, const torch::Tensor& chunks, int n_samples,
                               torch::Generator& gen) const;
   /// Reverse diffusion from noise for normalised obs (B, obs_dim) -> normalised chunks (B, T_p, A).
+  /// The conditioning of every (row, timestep) is computed in one pass before the denoising loop.
   torch::Tensor sample(const torch::Tensor& obs, torch::Generator& gen) const;
+  /// The same computation with the full forward pass at every step (the reference for tests).
+  torch::Tensor sample_reference(const torch::Tensor& obs, torch::Generator& gen) const;
+
 };
 
 /// A CPU generator seeded with `seed`.

@@ -97,23 +97,29 @@ torch::Tensor NoiseScheduler::step(const torch::Tensor& output, int64_t t, const
                                    torch::Generator& gen) const {
   const int64_t prev = t - config_.num_train_timesteps / config_.num_inference_steps;
   const double ab_t = abar(t), ab_prev = abar(prev);
-  const torch::Tensor tt = torch::full({x_t.size(0)}, t, torch::kInt64);
-  torch::Tensor x0 = predicted_x0(output, x_t, tt);
+  const double a = std::sqrt(ab_t), s = std::sqrt(1.0 - ab_t);
+  // x0 from the network output with scalar coefficients: one timestep for the whole batch.
+  torch::Tensor x0;
+  switch (config_.prediction) {
+    case PredictionType::kEpsilon: x0 = (x_t - s * output) / a; break;
+    case PredictionType::kSample: x0 = output; break;
+    case PredictionType::kVelocity: x0 = a * x_t - s * output; break;
+  }
   if (config_.clip_sample) x0 = x0.clamp(-1.0, 1.0);
 
   if (config_.sampler == SamplerType::kDdim) {
     // Deterministic DDIM (eta = 0); eps is re-derived from the clipped x0.
-    const torch::Tensor eps = (x_t - std::sqrt(ab_t) * x0) / std::sqrt(1.0 - ab_t);
+    const torch::Tensor eps = (x_t - a * x0) / s;
     return std::sqrt(ab_prev) * x0 + std::sqrt(1.0 - ab_prev) * eps;
   }
   // DDPM posterior q(x_prev | x_t, x0) with the "fixed small" variance.
   const double alpha_t = ab_t / ab_prev, beta_t = 1.0 - alpha_t;
   const double c_x0 = std::sqrt(ab_prev) * beta_t / (1.0 - ab_t);
   const double c_xt = std::sqrt(alpha_t) * (1.0 - ab_prev) / (1.0 - ab_t);
-  torch::Tensor mean = c_x0 * x0 + c_xt * x_t;
+  torch::Tensor mean = torch::add(x0 * c_x0, x_t, c_xt);
   if (t > 0) {
     const double var = std::max((1.0 - ab_prev) / (1.0 - ab_t) * beta_t, 1e-20);
-    mean = mean + std::sqrt(var) * torch::randn(x_t.sizes(), gen, x_t.options());
+    mean.add_(torch::randn(x_t.sizes(), gen, x_t.options()), std::sqrt(var));
   }
   return mean;
 }
