@@ -5,34 +5,15 @@
 
 #include <nlohmann/json.hpp>
 
+#include "core/json_read.h"
+
 namespace dd {
 namespace {
 
 using nlohmann::json;
 
-// Rejects keys of `j` that are not in `allowed`, naming the first unknown one.
-void require_known_keys(const json& j, const std::set<std::string>& allowed, const char* what) {
-  if (!j.is_object()) throw Error(std::string(what) + ": expected an object");
-  for (const auto& [key, value] : j.items()) {
-    if (!allowed.count(key)) {
-      std::string list;
-      for (const auto& a : allowed) list += (list.empty() ? "" : ", ") + a;
-      throw Error(std::string(what) + ": unknown key '" + key + "' (known: " + list + ")");
-    }
-  }
-}
-
-// Reads j[key] into out when present; a type mismatch names the key.
-template <typename T>
-void read(const json& j, const char* key, T& out, const char* what) {
-  auto it = j.find(key);
-  if (it == j.end()) return;
-  try {
-    out = it->template get<T>();
-  } catch (const json::exception& e) {
-    throw Error(std::string(what) + "." + key + ": " + e.what());
-  }
-}
+using json_read::read;
+using json_read::require_known_keys;
 
 void check(bool ok, const std::string& field, const std::string& why) {
   if (!ok) throw Error(field + ": " + why);

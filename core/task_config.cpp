@@ -6,6 +6,8 @@
 #include <nlohmann/json.hpp>
 #include <set>
 
+#include "core/json_read.h"
+
 namespace dd {
 namespace {
 
@@ -47,21 +49,10 @@ json to_json(const YAML::Node& n) {
   }
 }
 
-template <typename T>
-void read(const json& j, const char* key, T& out, const std::string& where) {
-  auto it = j.find(key);
-  if (it == j.end()) return;
-  try {
-    out = it->template get<T>();
-  } catch (const json::exception& e) {
-    throw Error(where + "." + key + ": " + e.what());
-  }
-}
+using json_read::read;
 
 void require_keys(const json& j, const std::set<std::string>& allowed, const std::string& where) {
-  if (!j.is_object()) throw Error(where + ": expected a mapping");
-  for (const auto& [k, v] : j.items())
-    if (!allowed.count(k)) throw Error(where + ": unknown key '" + k + "'");
+  json_read::require_known_keys(j, allowed, where);
 }
 
 void apply_dagger(const json& j, DaggerConfig& d) {
