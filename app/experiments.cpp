@@ -110,37 +110,6 @@ std::vector<Episode> collect_demos(const std::string& task, const std::string& m
   return out;
 }
 
-// Robot-only episodes recorded for Thrifty's critic.
-std::vector<RecordedEpisode> robot_rollouts(Env& env, Method& m, int n, int time_limit, int action_steps, uint64_t seed) {
-  std::vector<RecordedEpisode> out;
-  for (int e = 0; e < n; ++e) {
-    env.reset(seed + static_cast<uint64_t>(e));
-    env.set_time_limit(time_limit);
-    std::vector<Vec> obs, act;
-    bool done = false;
-    uint64_t k = 0;
-    while (!done) {
-      const MethodDecision d = m.decide(env.observation(), seed * 31 + k++);
-      for (int i = 0; i < action_steps && !done; ++i) {
-        obs.push_back(env.observation());
-        act.push_back(d.chunk.row(i).transpose());
-        done = env.step(act.back()).done;
-      }
-    }
-    RecordedEpisode r;
-    r.obs.resize(static_cast<Eigen::Index>(obs.size()), env.obs_dim());
-    r.actions.resize(static_cast<Eigen::Index>(act.size()), env.action_dim());
-    for (size_t i = 0; i < obs.size(); ++i) {
-      r.obs.row(static_cast<Eigen::Index>(i)) = obs[i].transpose();
-      r.actions.row(static_cast<Eigen::Index>(i)) = act[i].transpose();
-    }
-    r.success = env.success();
-    r.source = "robot";
-    out.push_back(std::move(r));
-  }
-  return out;
-}
-
 std::string method_title(const std::string& m) {
   if (m == "diff") return "Diff-DAgger";
   if (m == "ensemble") return "Ensemble-DAgger";
@@ -270,7 +239,8 @@ void run_eval(const ExperimentConfig& config, const EvalOptions& o) {
           m->update(demos, {}, c.train, bar.fn());
         }
         if (name == "thrifty") {  // the critic learns from robot rollouts too
-          const auto robot = robot_rollouts(*env, *m, std::max(5, o.episodes / 5), d.time_limit, d.action_steps, eval_seed + 500);
+          std::vector<RecordedEpisode> robot;
+          evaluate_rollouts(*env, *m, std::max(5, o.episodes / 5), d.time_limit, d.patience, d.action_steps, eval_seed + 500, {}, &robot);
           m->update(demos, robot, c.train);
         }
         std::vector<RolloutResult> results;

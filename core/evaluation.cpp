@@ -7,7 +7,8 @@
 namespace dd {
 
 std::vector<RolloutResult> evaluate_rollouts(Env& env, Method& method, int episodes, int time_limit, int patience,
-                                             int action_steps, uint64_t seed, const ProgressFn& progress) {
+                                             int action_steps, uint64_t seed, const ProgressFn& progress,
+                                             std::vector<RecordedEpisode>* recorded) {
   std::vector<RolloutResult> out;
   QueryGate gate(0.f, patience);
   for (int e = 0; e < episodes; ++e) {
@@ -18,6 +19,7 @@ std::vector<RolloutResult> evaluate_rollouts(Env& env, Method& method, int episo
     gate.reset();
     bool done = false;
     uint64_t decision = 0;
+    std::vector<Vec> obs, act;
     while (!done) {
       const auto t = std::chrono::steady_clock::now();
       const MethodDecision d = method.decide(env.observation(), s * 7919 + decision++);
@@ -27,10 +29,28 @@ std::vector<RolloutResult> evaluate_rollouts(Env& env, Method& method, int episo
         r.queried = true;
         r.first_query_step = env.steps();
       }
-      for (int k = 0; k < action_steps && !done; ++k) done = env.step(d.chunk.row(k).transpose()).done;
+      for (int k = 0; k < action_steps && !done; ++k) {
+        if (recorded) {
+          obs.push_back(env.observation());
+          act.push_back(d.chunk.row(k).transpose());
+        }
+        done = env.step(d.chunk.row(k).transpose()).done;
+      }
     }
     r.success = env.success();
     r.steps = env.steps();
+    if (recorded) {
+      RecordedEpisode ep;
+      ep.obs.resize(static_cast<Eigen::Index>(obs.size()), env.obs_dim());
+      ep.actions.resize(static_cast<Eigen::Index>(act.size()), env.action_dim());
+      for (size_t i = 0; i < obs.size(); ++i) {
+        ep.obs.row(static_cast<Eigen::Index>(i)) = obs[i].transpose();
+        ep.actions.row(static_cast<Eigen::Index>(i)) = act[i].transpose();
+      }
+      ep.success = r.success;
+      ep.source = "robot";
+      recorded->push_back(std::move(ep));
+    }
     out.push_back(r);
     if (progress) progress(e + 1, episodes, success_rate(out));
   }

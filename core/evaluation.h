@@ -20,9 +20,11 @@ struct RolloutResult {
   double inference_s = 0;     // time spent deciding
 };
 
-/// Runs `episodes` robot-only episodes from seeds seed, seed + 1, ... with time limit T_L.
+/// Runs `episodes` robot-only episodes from seeds seed, seed + 1, ... with time limit T_L. When
+/// `recorded` is given, every episode's steps are appended to it as robot data (Thrifty's critic).
 std::vector<RolloutResult> evaluate_rollouts(Env& env, Method& method, int episodes, int time_limit, int patience,
-                                             int action_steps, uint64_t seed, const ProgressFn& progress = {});
+                                             int action_steps, uint64_t seed, const ProgressFn& progress = {},
+                                             std::vector<RecordedEpisode>* recorded = nullptr);
 
 /// The confusion matrix of queries against failures: positive = query, actual positive = failure.
 struct FailurePrediction {

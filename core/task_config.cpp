@@ -51,12 +51,10 @@ json to_json(const YAML::Node& n) {
 
 using json_read::read;
 
-void require_keys(const json& j, const std::set<std::string>& allowed, const std::string& where) {
-  json_read::require_known_keys(j, allowed, where);
-}
+using json_read::require_known_keys;
 
 void apply_dagger(const json& j, DaggerConfig& d) {
-  require_keys(j, {"initial_demos", "final_demos", "demos_per_update", "patience", "time_limit", "expert_time_limit", "action_steps",
+  require_known_keys(j, {"initial_demos", "final_demos", "demos_per_update", "patience", "time_limit", "expert_time_limit", "action_steps",
                    "max_episodes", "seed"},
                "dagger");
   read(j, "initial_demos", d.initial_demos, "dagger");
@@ -71,7 +69,7 @@ void apply_dagger(const json& j, DaggerConfig& d) {
 }
 
 void apply_method(const json& j, MethodConfig& m) {
-  require_keys(j, {"alpha", "members", "loss_samples", "calibration_pairs", "risk_quantile", "critic_steps"}, "method");
+  require_known_keys(j, {"alpha", "members", "loss_samples", "calibration_pairs", "risk_quantile", "critic_steps"}, "method");
   read(j, "alpha", m.alpha, "method");
   read(j, "members", m.members, "method");
   read(j, "loss_samples", m.loss_samples, "method");
@@ -180,7 +178,7 @@ ExperimentConfig load_experiment_config(const std::string& path) {
     throw Error(path + ": malformed YAML: " + e.what());
   }
   try {
-    require_keys(j, {"preset", "policy", "train", "dagger", "method", "rq1_demos"}, "config");
+    require_known_keys(j, {"preset", "policy", "train", "dagger", "method", "rq1_demos"}, "config");
     if (!j.contains("preset")) throw Error("config: missing key 'preset' (one of nav2d, stack, push_1expert, push_2experts, plug)");
     ExperimentConfig c = preset(j.at("preset").get<std::string>());
     if (j.contains("policy")) {
