@@ -5,20 +5,6 @@
 #include "app/experiments.h"
 
 namespace dd::app {
-namespace {
-
-// --task picks the preset of the same name (push: the two-expert variant); --config overrides it.
-ExperimentConfig resolve_config(const std::string& task, const std::string& config_file) {
-  if (!config_file.empty()) {
-    ExperimentConfig c = load_experiment_config(config_file);
-    if (!task.empty() && c.task != task)
-      throw Error(config_file + ": preset '" + c.preset + "' is for task '" + c.task + "', not '" + task + "'");
-    return c;
-  }
-  return preset(task == "push" ? "push_2experts" : task);
-}
-
-}  // namespace
 
 Command add_dagger(CLI::App& app) {
   auto* cmd = app.add_subcommand("dagger", "One interactive-learning run, headless, with the scripted expert");

@@ -20,6 +20,8 @@ Command add_dagger(CLI::App& app);
 Command add_eval(CLI::App& app);
 /// `dataset info|export|merge`.
 Command add_dataset(CLI::App& app);
+/// `gui`: the operator console, in a window or headless.
+Command add_gui(CLI::App& app);
 /// `inspect`: print a checkpoint's config, parameter count and normalisers.
 Command add_inspect(CLI::App& app);
 

@@ -12,6 +12,7 @@
 
 #include "core/dataset.h"
 #include "core/evaluation.h"
+#include "core/event_log.h"
 #include "core/progress.h"
 #include "core/session.h"
 #include "envs/registry.h"
@@ -34,43 +35,6 @@ void write_text(const std::string& path, const std::string& text) {
   f.flush();
   if (!f) throw Error(path + ": could not write (disk full or no permission?)");
 }
-
-// Writes one JSON object per session event (progress ticks left out), flushed line by line so a
-// crash keeps everything up to the moment.
-class EventLog {
- public:
-  explicit EventLog(const std::string& path) : path_(path), f_(path, std::ios::app) {
-    if (!f_) throw Error(path + ": could not open the query log");
-  }
-  void operator()(const SessionEvent& e) {
-    if (e.kind == EventKind::kUpdateProgress) return;
-    nlohmann::json j{{"event", to_string(e.kind)}, {"episode", e.episode}, {"step", e.step}, {"control", to_string(e.control)}};
-    if (e.kind == EventKind::kDecision) {
-      j["score"] = e.score;
-      j["threshold"] = e.threshold;
-      j["violation"] = e.violation;
-      j["run"] = e.run;
-      j["inference_ms"] = e.inference_s * 1e3;
-      if (e.risk_q >= 0) j["risk_q"] = e.risk_q;
-    }
-    if (e.kind == EventKind::kEpisodeEnd) j["success"] = e.success;
-    if (e.kind == EventKind::kUpdateFinished) {
-      j["train_s"] = e.report.train_s;
-      j["threshold_s"] = e.report.threshold_s;
-      j["threshold"] = e.report.threshold;
-      j["pairs"] = e.report.pairs;
-    }
-    j["expert_demos"] = e.expert_demos;
-    j["interventions"] = e.interventions;
-    f_ << j.dump() << '\n';
-    f_.flush();
-    if (!f_) throw Error(path_ + ": could not append to the query log (disk full?)");
-  }
-
- private:
-  std::string path_;
-  std::ofstream f_;
-};
 
 std::pair<double, double> mean_std(const std::vector<double>& v) {
   if (v.empty()) return {NAN, NAN};
@@ -128,6 +92,16 @@ ui::Rgb method_color(const std::string& m) {
 }
 
 }  // namespace
+
+ExperimentConfig resolve_config(const std::string& task, const std::string& config_file) {
+  if (!config_file.empty()) {
+    ExperimentConfig c = load_experiment_config(config_file);
+    if (!task.empty() && c.task != task)
+      throw Error(config_file + ": preset '" + c.preset + "' is for task '" + c.task + "', not '" + task + "'");
+    return c;
+  }
+  return preset(task == "push" ? "push_2experts" : task);
+}
 
 int bc_budget_factor(const DaggerConfig& d) {
   return 1 + (d.final_demos - d.initial_demos + d.demos_per_update - 1) / d.demos_per_update;

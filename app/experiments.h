@@ -8,6 +8,9 @@
 
 namespace dd::app {
 
+/// --task picks the preset of the same name (push: the two-expert variant); --config overrides it.
+ExperimentConfig resolve_config(const std::string& task, const std::string& config_file);
+
 /// One interactive-learning run with the scripted expert.
 struct DaggerRunOptions {
   std::string method = "diff";   // diff | ensemble | thrifty | bc

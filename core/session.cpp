@@ -27,6 +27,7 @@ std::string to_string(Control c) {
     case Control::kExpertQuery: return "expert_query";
     case Control::kExpertTimeout: return "expert_timeout";
     case Control::kExpertDemo: return "expert_demo";
+    case Control::kOperator: return "operator";
   }
   return "?";
 }
@@ -37,6 +38,7 @@ std::string to_string(EventKind k) {
     case EventKind::kDecision: return "decision";
     case EventKind::kQuery: return "query";
     case EventKind::kTakeover: return "takeover";
+    case EventKind::kHandBack: return "hand_back";
     case EventKind::kTimeout: return "timeout";
     case EventKind::kEpisodeEnd: return "episode_end";
     case EventKind::kUpdateStarted: return "update_started";
@@ -114,7 +116,29 @@ bool DaggerSession::tick() {
 
 void DaggerSession::hand_over(Control to) {
   control_ = to;
+  expert_acted_ = true;
   emit({EventKind::kTakeover});
+}
+
+void DaggerSession::end_episode_now() {
+  if (in_episode_ && !obs_.empty()) end_episode();
+  else in_episode_ = false;
+}
+
+bool DaggerSession::take_over() {
+  if (done_ || update_pending_ || !in_episode_ || control_ != Control::kRobot) return false;
+  hand_over(Control::kOperator);
+  return true;
+}
+
+bool DaggerSession::hand_back() {
+  if (!in_episode_ || (control_ != Control::kExpertQuery && control_ != Control::kOperator)) return false;
+  control_ = Control::kRobot;
+  gate_.reset();
+  chunk_.resize(0, 0);
+  chunk_pos_ = 0;
+  emit({EventKind::kHandBack});
+  return true;
 }
 
 void DaggerSession::start_episode() {
@@ -131,6 +155,7 @@ void DaggerSession::start_episode() {
   flags_.clear();
   const int demos_wanted = method_.gated() ? config_.initial_demos : config_.final_demos;
   control_ = expert_demos_ < demos_wanted ? Control::kExpertDemo : Control::kRobot;
+  expert_acted_ = control_ == Control::kExpertDemo;
   in_episode_ = true;
   emit({EventKind::kEpisodeStart});
 }
@@ -150,7 +175,7 @@ void DaggerSession::end_episode() {
   if (rec.success && T > 0) rec.rewards.back() = 1.f;
   rec.dones.assign(static_cast<size_t>(T), 0);
   if (T > 0) rec.dones.back() = 1;
-  const bool expert_acted = control_ != Control::kRobot;
+  const bool expert_acted = expert_acted_;
   rec.source = control_ == Control::kExpertDemo ? "expert" : (expert_acted ? "intervention" : "robot");
 
   SessionEvent end{EventKind::kEpisodeEnd};

@@ -43,18 +43,20 @@ struct DaggerConfig {
 };
 
 /// Who is acting.
-enum class Control { kRobot, kExpertQuery, kExpertTimeout, kExpertDemo };
+/// kOperator: a person took over without being asked (human-gated, from the console).
+enum class Control { kRobot, kExpertQuery, kExpertTimeout, kExpertDemo, kOperator };
 std::string to_string(Control c);
 
 enum class EventKind {
-  kEpisodeStart, kDecision, kQuery, kTakeover, kTimeout, kEpisodeEnd,
+  kEpisodeStart, kDecision, kQuery, kTakeover, kHandBack, kTimeout, kEpisodeEnd,
   kUpdateStarted, kUpdateProgress, kUpdateFinished, kDone
 };
 std::string to_string(EventKind k);
 
 /// What happened; fields beyond kind/episode/step/control are filled where they apply.
 struct SessionEvent {
-  EventKind kind = EventKind::kEpisodeStart;
+  SessionEvent(EventKind k = EventKind::kEpisodeStart) : kind(k) {}  // NOLINT: events are built from their kind
+  EventKind kind;
   int episode = 0;           // 1-based episode number
   int step = 0;              // env step within the episode
   Control control = Control::kRobot;
@@ -86,6 +88,22 @@ class DaggerSession {
   bool tick();
   /// Runs the pending policy update now (the console calls it from a worker thread).
   void run_update(const ProgressFn& progress = {});
+  /// The operator takes over from the robot in the middle of an episode (Control::kOperator). The
+  /// steps from here on are recorded as an intervention. False (and nothing happens) unless the robot
+  /// is in control.
+  bool take_over();
+  /// Control goes back to the robot after a query or an operator takeover: the gate starts counting
+  /// afresh and the robot plans a new chunk. False unless an expert answering a query or the operator
+  /// is in control (a time-out or a demonstration cannot be handed back).
+  bool hand_back();
+  /// Ends the current episode where it stands (a reset, or the console closing): it is recorded like
+  /// any other, so the expert steps it holds reach the data set. No-op between episodes.
+  void end_episode_now();
+  /// The chunk the robot is executing and the index of its next action (empty when none).
+  const Mat& chunk() const { return chunk_; }
+  int chunk_pos() const { return chunk_pos_; }
+  /// True while the current episode has had expert steps (so it will be recorded as expert data).
+  bool expert_acted() const { return expert_acted_; }
 
   bool done() const { return done_; }
   bool update_pending() const { return update_pending_; }
@@ -115,7 +133,7 @@ class DaggerSession {
   QueryGate gate_;
   std::vector<SessionObserver> observers_;
 
-  bool done_ = false, update_pending_ = false, finishing_ = false, in_episode_ = false;
+  bool done_ = false, update_pending_ = false, finishing_ = false, in_episode_ = false, expert_acted_ = false;
   Control control_ = Control::kExpertDemo;
   int episode_ = 0, expert_demos_ = 0, interventions_ = 0, updates_ = 0, demos_at_last_update_ = -1;
   uint64_t episode_seed_ = 0, decisions_ = 0;

@@ -312,6 +312,55 @@ TEST(Session, MaxEpisodesTriggersALastUpdateOnNewData) {
   EXPECT_EQ(method.update_sizes, (std::vector<int>{1, 2}));
 }
 
+TEST(Session, OperatorTakeoverAndHandBackRecordOnlyTheOperatorSteps) {
+  LineEnv env;
+  ForwardExpert expert;
+  ScriptedMethod method({}, /*speed=*/0.25f);  // never asks, moves slowly
+  DaggerConfig c = small_config();
+  c.final_demos = 2;
+  c.time_limit = 100;
+  DaggerSession s(env, expert, method, c, no_training());
+  Recorder rec;
+  s.add_observer(rec.fn());
+  EXPECT_FALSE(s.take_over());  // nothing to take over before an episode
+  while (s.updates() == 0) s.tick();  // the demonstration and the first update
+  EXPECT_FALSE(s.hand_back());        // nothing to hand back between episodes
+  for (int i = 0; i < 4; ++i) s.tick();
+  ASSERT_EQ(s.control(), Control::kRobot);
+  EXPECT_FALSE(s.hand_back());        // the robot is already in control
+  ASSERT_TRUE(s.take_over());
+  EXPECT_EQ(s.control(), Control::kOperator);
+  EXPECT_FALSE(s.take_over());        // already taken over
+  for (int i = 0; i < 3; ++i) s.tick();  // three operator steps (the expert's forward action)
+  ASSERT_TRUE(s.hand_back());
+  EXPECT_EQ(s.control(), Control::kRobot);
+  EXPECT_TRUE(s.expert_acted());
+  while (s.in_episode()) s.tick();  // the robot finishes the episode
+  EXPECT_EQ(s.interventions(), 1);
+  ASSERT_EQ(s.expert_data().size(), 2u);
+  EXPECT_EQ(s.expert_data().back().obs.rows(), 3);  // only the operator's steps are training data
+  EXPECT_EQ(rec.count(EventKind::kHandBack), 1);
+  bool operator_takeover = false;
+  for (const auto& e : rec.events) operator_takeover |= e.kind == EventKind::kTakeover && e.control == Control::kOperator;
+  EXPECT_TRUE(operator_takeover);
+}
+
+TEST(Session, EndingAnEpisodeEarlyKeepsItsExpertSteps) {
+  LineEnv env;
+  ForwardExpert expert;
+  ScriptedMethod method({});
+  DaggerConfig c = small_config();
+  DaggerSession s(env, expert, method, c, no_training());
+  for (int i = 0; i < 4; ++i) s.tick();  // four steps of the first demonstration
+  ASSERT_TRUE(s.in_episode());
+  s.end_episode_now();
+  EXPECT_FALSE(s.in_episode());
+  ASSERT_EQ(s.expert_data().size(), 1u);
+  EXPECT_EQ(s.expert_data()[0].obs.rows(), 4);
+  s.end_episode_now();  // between episodes: nothing happens
+  EXPECT_EQ(s.expert_data().size(), 1u);
+}
+
 TEST(Session, RejectsBadSchedules) {
   LineEnv env;
   ForwardExpert expert;

@@ -1,0 +1,282 @@
+#include "ui/console_app.h"
+
+#include <GL/gl.h>
+#include <GLFW/glfw3.h>
+#include <imgui.h>
+#include <backends/imgui_impl_glfw.h>
+#include <backends/imgui_impl_opengl3.h>
+#include <spdlog/spdlog.h>
+#include <yaml-cpp/yaml.h>
+
+#include <cfloat>
+#include <chrono>
+#include <filesystem>
+#include <map>
+#include <set>
+#include <thread>
+
+#include "core/config.h"
+#include "ui/headless_gl.h"
+#include "ui/image_io.h"
+
+namespace dd::ui {
+namespace {
+
+namespace fs = std::filesystem;
+
+// The framebuffer currently bound, as a top-down image.
+Image grab(int width, int height) {
+  Image img{width, height, std::vector<uint8_t>(static_cast<size_t>(width) * height * 4)};
+  std::vector<uint8_t> up(img.rgba.size());
+  glPixelStorei(GL_PACK_ALIGNMENT, 1);
+  glReadPixels(0, 0, width, height, GL_RGBA, GL_UNSIGNED_BYTE, up.data());
+  const size_t row = static_cast<size_t>(width) * 4;
+  for (int y = 0; y < height; ++y) std::copy_n(&up[(height - 1 - y) * row], row, &img.rgba[y * row]);
+  for (size_t i = 3; i < img.rgba.size(); i += 4) img.rgba[i] = 255;
+  return img;
+}
+
+void save_shots(Console& console, const std::string& dir, int width, int height, std::set<std::string>* written) {
+  for (const std::string& name : console.take_screenshot_requests()) {
+    if (dir.empty()) continue;
+    const std::string path = dir + "/" + name + ".png";
+    write_png(path, grab(width, height));
+    spdlog::info("screenshot {}", path);
+    if (written) written->insert(name);
+  }
+}
+
+void render_imgui(int width, int height) {
+  ImGui::Render();
+  glViewport(0, 0, width, height);
+  glClearColor(0.06f, 0.065f, 0.08f, 1.f);
+  glClear(GL_COLOR_BUFFER_BIT);
+  ImGui_ImplOpenGL3_RenderDrawData(ImGui::GetDrawData());
+}
+
+// ---- the script of input events (headless) ----
+
+int key_code(const std::string& name, const std::string& where) {
+  static const std::map<std::string, int> named = {
+      {"Space", GLFW_KEY_SPACE}, {"Escape", GLFW_KEY_ESCAPE}, {"F1", GLFW_KEY_F1}, {"F12", GLFW_KEY_F12},
+      {"Plus", GLFW_KEY_EQUAL},  {"Minus", GLFW_KEY_MINUS}};
+  if (auto it = named.find(name); it != named.end()) return it->second;
+  if (name.size() == 1 && std::isalpha(static_cast<unsigned char>(name[0])))
+    return GLFW_KEY_A + (std::toupper(static_cast<unsigned char>(name[0])) - 'A');
+  throw Error(where + ": unknown key '" + name + "' (letters, Space, Escape, F1, F12, Plus, Minus)");
+}
+
+Eigen::Vector2d hold_direction(const std::string& name, const std::string& where) {
+  if (name == "Up") return {0, 1};
+  if (name == "Down") return {0, -1};
+  if (name == "Left") return {-1, 0};
+  if (name == "Right") return {1, 0};
+  throw Error(where + ": unknown direction '" + name + "' (Up, Down, Left, Right)");
+}
+
+struct ScriptEvent {
+  int at = -1;          // frame, or -1 when triggered by `on`
+  std::string on;       // query | update | takeover | episode
+  int after = 0;        // frames after the trigger
+  int key = -1;         // a key press
+  Eigen::Vector2d hold{0, 0};
+  int frames = 1;       // how long a hold lasts
+  int start = -1;       // resolved start frame
+};
+
+std::vector<ScriptEvent> load_script(const std::string& path) {
+  if (!fs::exists(path)) throw Error(path + ": no such script file");
+  YAML::Node root;
+  try {
+    root = YAML::LoadFile(path);
+  } catch (const YAML::Exception& e) {
+    throw Error(path + ": malformed YAML: " + e.what());
+  }
+  if (!root.IsSequence()) throw Error(path + ": a script is a list of events, e.g. - {on: query, after: 8, key: T}");
+  std::vector<ScriptEvent> out;
+  for (size_t i = 0; i < root.size(); ++i) {
+    const YAML::Node n = root[i];
+    const std::string where = path + ": event " + std::to_string(i + 1);
+    if (!n.IsMap()) throw Error(where + ": must be a map");
+    ScriptEvent e;
+    try {
+      for (const auto& kv : n) {
+        const std::string k = kv.first.as<std::string>();
+        if (k == "at") e.at = kv.second.as<int>();
+        else if (k == "on") e.on = kv.second.as<std::string>();
+        else if (k == "after") e.after = kv.second.as<int>();
+        else if (k == "key") e.key = key_code(kv.second.as<std::string>(), where);
+        else if (k == "hold") e.hold = hold_direction(kv.second.as<std::string>(), where);
+        else if (k == "frames") e.frames = kv.second.as<int>();
+        else throw Error(where + ": unknown field '" + k + "' (at, on, after, key, hold, frames)");
+      }
+    } catch (const YAML::Exception& ex) {
+      throw Error(where + ": " + ex.what());
+    }
+    if ((e.at < 0) == e.on.empty()) throw Error(where + ": give exactly one of 'at' (a frame) or 'on' (an event)");
+    if (!e.on.empty() && e.on != "query" && e.on != "update" && e.on != "takeover" && e.on != "episode")
+      throw Error(where + ": field 'on' must be query, update, takeover or episode, not '" + e.on + "'");
+    if (e.key < 0 && e.hold.isZero()) throw Error(where + ": give a 'key' or a 'hold'");
+    if (e.frames < 1 || e.after < 0) throw Error(where + ": 'frames' must be >= 1 and 'after' >= 0");
+    e.start = e.at;
+    out.push_back(e);
+  }
+  return out;
+}
+
+}  // namespace
+
+int run_headless(ConsoleOptions options, const ConsoleRunOptions& run) {
+  std::vector<ScriptEvent> script;
+  if (!run.script.empty()) script = load_script(run.script);
+  options.fixed_step = true;
+  options.scripted_operator = run.script.empty();
+  if (!run.screenshots.empty()) fs::create_directories(run.screenshots);
+
+  std::string error;
+  auto gl = HeadlessGL::create(run.width, run.height, &error);
+  if (!gl) throw Error(error);
+  IMGUI_CHECKVERSION();
+  ImGui::CreateContext();
+  ImGuiIO& io = ImGui::GetIO();
+  io.IniFilename = nullptr;
+  io.DisplaySize = ImVec2(static_cast<float>(run.width), static_cast<float>(run.height));
+  int code = 0;
+  {
+    Console console(options);  // loads the fonts before the backend builds its atlas
+    ImGui_ImplOpenGL3_Init("#version 130");
+    const double dt = 1.0 / 20;
+    const int max_frames = run.max_frames > 0 ? run.max_frames : 20000;
+    std::set<std::string> written;
+    const std::set<std::string> wanted = {"query", "takeover", "update"};
+    int frame = 0;
+    while (frame < max_frames) {
+      FrameInput in;
+      in.dt = dt;
+      for (ScriptEvent& e : script) {
+        if (e.start < 0) {
+          const bool fired = (e.on == "query" && console.queries() > 0) || (e.on == "update" && console.updates() > 0) ||
+                             (e.on == "takeover" && console.operator_takeovers() > 0) || (e.on == "episode" && console.episode() > 1);
+          if (fired) e.start = frame + e.after;
+        }
+        if (e.start < 0 || frame < e.start) continue;
+        if (e.key >= 0 && frame == e.start) in.pressed.push_back(e.key);
+        if (!e.hold.isZero() && frame < e.start + e.frames) in.jog += e.hold;
+      }
+      io.DeltaTime = static_cast<float>(dt);
+      io.MousePos = ImVec2(-FLT_MAX, -FLT_MAX);
+      ImGui_ImplOpenGL3_NewFrame();
+      ImGui::NewFrame();
+      console.frame(in);
+      render_imgui(run.width, run.height);
+      save_shots(console, run.screenshots, run.width, run.height, &written);
+      if (console.quit()) break;
+      if (!run.screenshots.empty() && std::includes(written.begin(), written.end(), wanted.begin(), wanted.end())) break;
+      // while the worker trains, frames wait for it instead of counting down the budget
+      if (console.busy()) {
+        std::this_thread::sleep_for(std::chrono::milliseconds(20));
+        continue;
+      }
+      ++frame;
+    }
+    if (frame >= max_frames) spdlog::warn("headless console: stopped after {} frames", max_frames);
+    for (const std::string& w : wanted)
+      if (!run.screenshots.empty() && !written.count(w)) {
+        spdlog::error("headless console: no {}.png (the event did not happen within {} frames)", w, frame);
+        code = 3;
+      }
+    console.shutdown();
+    ImGui_ImplOpenGL3_Shutdown();
+  }
+  ImGui::DestroyContext();
+  return code;
+}
+
+// ---- the window ----
+
+namespace {
+
+std::vector<int>* g_keys = nullptr;
+
+void key_callback(GLFWwindow*, int key, int, int action, int) {
+  // ImGui 1.86 has no input queue: keep every press, however short, for the next frame
+  if (g_keys && (action == GLFW_PRESS || (action == GLFW_REPEAT && (key == GLFW_KEY_N)))) g_keys->push_back(key);
+}
+
+void glfw_error(int code, const char* what) { spdlog::error("GLFW error {}: {}", code, what); }
+
+}  // namespace
+
+int run_window(ConsoleOptions options, const ConsoleRunOptions& run) {
+  glfwSetErrorCallback(glfw_error);
+  if (!glfwInit()) throw Error("gui: GLFW could not start (no display? use --headless)");
+  GLFWwindow* window =
+      glfwCreateWindow(run.width, run.height, ("diffdagger: " + options.config.task + ", " + options.method).c_str(), nullptr, nullptr);
+  if (!window) {
+    glfwTerminate();
+    throw Error("gui: could not open a window with an OpenGL context");
+  }
+  glfwMakeContextCurrent(window);
+  glfwSwapInterval(1);
+  std::vector<int> keys;
+  g_keys = &keys;
+  glfwSetKeyCallback(window, key_callback);  // installed first, so ImGui's backend chains to it
+
+  IMGUI_CHECKVERSION();
+  ImGui::CreateContext();
+  ImGui::GetIO().IniFilename = nullptr;
+  if (!run.screenshots.empty()) fs::create_directories(run.screenshots);
+  int code = 0;
+  {
+    Console console(options);
+    ImGui_ImplGlfw_InitForOpenGL(window, true);
+    ImGui_ImplOpenGL3_Init("#version 130");
+    spdlog::info("console window open; F1 lists the keys");
+    auto last = std::chrono::steady_clock::now();
+    unsigned char previous_buttons[GLFW_GAMEPAD_BUTTON_LAST + 1] = {};
+    while (!console.quit()) {
+      glfwPollEvents();
+      FrameInput in;
+      const auto now = std::chrono::steady_clock::now();
+      in.dt = std::chrono::duration<double>(now - last).count();
+      last = now;
+      in.pressed.swap(keys);
+      auto down = [&](int key) { return glfwGetKey(window, key) == GLFW_PRESS ? 1 : 0; };
+      in.jog = Eigen::Vector2d(down(GLFW_KEY_RIGHT) - down(GLFW_KEY_LEFT), down(GLFW_KEY_UP) - down(GLFW_KEY_DOWN));
+      GLFWgamepadstate pad;
+      if (glfwJoystickIsGamepad(GLFW_JOYSTICK_1) && glfwGetGamepadState(GLFW_JOYSTICK_1, &pad)) {
+        const float x = pad.axes[GLFW_GAMEPAD_AXIS_LEFT_X], y = -pad.axes[GLFW_GAMEPAD_AXIS_LEFT_Y];
+        if (std::abs(x) > 0.15f || std::abs(y) > 0.15f) in.jog = Eigen::Vector2d(x, y);
+        const std::pair<int, int> map[] = {{GLFW_GAMEPAD_BUTTON_A, GLFW_KEY_T}, {GLFW_GAMEPAD_BUTTON_B, GLFW_KEY_H},
+                                           {GLFW_GAMEPAD_BUTTON_X, GLFW_KEY_E}, {GLFW_GAMEPAD_BUTTON_START, GLFW_KEY_SPACE}};
+        for (auto [button, key] : map) {
+          if (pad.buttons[button] && !previous_buttons[button]) in.pressed.push_back(key);
+          previous_buttons[button] = pad.buttons[button];
+        }
+      }
+      if (glfwWindowShouldClose(window)) {
+        in.close_requested = true;
+        glfwSetWindowShouldClose(window, GLFW_FALSE);  // the console decides (it may ask first)
+      }
+      ImGui_ImplOpenGL3_NewFrame();
+      ImGui_ImplGlfw_NewFrame();
+      ImGui::NewFrame();
+      console.frame(in);
+      int w = 0, h = 0;
+      glfwGetFramebufferSize(window, &w, &h);
+      render_imgui(w, h);
+      save_shots(console, run.screenshots, w, h, nullptr);
+      glfwSwapBuffers(window);
+    }
+    console.shutdown();
+    ImGui_ImplOpenGL3_Shutdown();
+    ImGui_ImplGlfw_Shutdown();
+  }
+  g_keys = nullptr;
+  ImGui::DestroyContext();
+  glfwDestroyWindow(window);
+  glfwTerminate();
+  return code;
+}
+
+}  // namespace dd::ui
