@@ -668,7 +668,9 @@ void scene_view(Console::State& s, ImVec2 pos, ImVec2 size) {
       p.x += 22 + ImGui::CalcTextSize(control_label(c)).x + 12;
     }
     dl->AddText(ImVec2(origin.x + 4, origin.y + side + 34), kAxisText,
-                "T take over   H hand back   E scripted expert   Space pause   F loss field   F1 all keys");
+                s.show_field && s.field_valid
+                    ? "loss field (the method's score at rest, log scale): dark = familiar, bright = unfamiliar"
+                    : "T take over   H hand back   E scripted expert   Space pause   F loss field   F1 all keys");
   }
   // the query banner: the robot waits for the operator
   if (s.awaiting) {
@@ -895,7 +897,8 @@ void session_view(Console::State& s, ImVec2 pos, ImVec2 size) {
   } else if (!s.status.empty()) {
     ImGui::TextWrapped("%s", s.status.c_str());
   } else {
-    ImGui::TextDisabled("data set: %s (%d episodes, saved as each ends)", s.writer->path().c_str(), s.writer->episodes());
+    ImGui::TextDisabled("data set: %d episodes in %s, saved as each ends", s.writer->episodes(),
+                        fs::path(s.writer->path()).filename().c_str());
   }
   ImGui::End();
 }

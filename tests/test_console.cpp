@@ -1,0 +1,135 @@
+// The operator console through its headless platform layer (EGL, fixed time step): the named
+// screenshots match the goldens in screenshots/, a script of input events takes over and hands back
+// with the steps reaching the data set, and a malformed script is refused with its file and field.
+//
+// DD_UPDATE_GOLDENS=1 rewrites the goldens from this run (look at them before committing).
+#include <gtest/gtest.h>
+
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+#include "app/experiments.h"
+#include "core/config.h"
+#include "core/dataset.h"
+#include "ui/console_app.h"
+#include "ui/image_io.h"
+
+namespace dd::ui {
+namespace {
+
+namespace fs = std::filesystem;
+
+std::string temp_dir(const std::string& name) {
+  const fs::path p = fs::temp_directory_path() / ("dd_console_" + name + "_" + std::to_string(::getpid()));
+  fs::remove_all(p);
+  return p.string();
+}
+
+ConsoleOptions quick_options(const std::string& out) {
+  ConsoleOptions o;
+  o.config = app::resolve_config("nav2d", "");
+  app::EvalOptions e;
+  e.apply_quick(o.config);
+  o.out = out;
+  return o;
+}
+
+std::string read_text(const std::string& path) {
+  std::ifstream f(path);
+  std::stringstream ss;
+  ss << f.rdbuf();
+  return ss.str();
+}
+
+}  // namespace
+
+TEST(Console, HeadlessScreenshotsMatchTheGoldens) {
+  const std::string dir = temp_dir("shots");
+  ConsoleRunOptions run;
+  run.screenshots = dir + "/shots";
+  ASSERT_EQ(run_headless(quick_options(dir + "/run"), run), 0);
+  const bool regenerate = std::getenv("DD_UPDATE_GOLDENS") && std::string(std::getenv("DD_UPDATE_GOLDENS")) == "1";
+  const std::string golden_dir = std::string(DD_SOURCE_DIR) + "/screenshots/nav2d";
+  for (const std::string name : {"update", "query", "takeover"}) {
+    const std::string actual_path = run.screenshots + "/" + name + ".png";
+    ASSERT_TRUE(fs::exists(actual_path)) << name;
+    const Image actual = read_png(actual_path);
+    EXPECT_EQ(actual.width, run.width);
+    EXPECT_EQ(actual.height, run.height);
+    const std::string golden = golden_dir + "/" + name + ".png";
+    if (regenerate) {
+      fs::create_directories(golden_dir);
+      fs::copy_file(actual_path, golden, fs::copy_options::overwrite_existing);
+      continue;
+    }
+    ASSERT_TRUE(fs::exists(golden)) << golden << " is missing: run with DD_UPDATE_GOLDENS=1 to create it";
+    const ImageDiff d = compare(actual, read_png(golden), /*tolerance=*/24);
+    const int budget = actual.width * actual.height / 100;  // 1% of the pixels
+    if (d.differing > budget) {
+      fs::create_directories("screenshot_failures");
+      write_png("screenshot_failures/" + name + "_actual.png", actual);
+      write_png("screenshot_failures/" + name + "_diff.png", d.heat);
+    }
+    EXPECT_LE(d.differing, budget) << name << ": " << d.differing << " pixels differ (max delta " << d.max_delta
+                                   << "); actual and diff in " << fs::absolute("screenshot_failures").string();
+  }
+  // the run's data and log are on disk
+  EXPECT_GE(read_dataset(dir + "/run/dataset.hdf5").size(), 4u);
+  const std::string log = read_text(dir + "/run/session.jsonl");
+  EXPECT_NE(log.find("\"event\":\"query\""), std::string::npos);
+  EXPECT_NE(log.find("\"event\":\"update_finished\""), std::string::npos);
+  fs::remove_all(dir);
+}
+
+TEST(Console, ScriptedOperatorTakesOverDrivesAndHandsBack) {
+  const std::string dir = temp_dir("script");
+  fs::create_directories(dir);
+  const std::string script = dir + "/script.yaml";
+  std::ofstream(script) << "# take over from the robot after the first update, drive right, hand back, reset\n"
+                           "- {on: update, after: 3, key: T}\n"
+                           "- {on: takeover, after: 0, hold: Right, frames: 10}\n"
+                           "- {on: takeover, after: 12, key: H}\n"
+                           "- {on: takeover, after: 20, key: R}\n";
+  ConsoleRunOptions run;
+  run.script = script;
+  run.max_frames = 260;
+  ASSERT_EQ(run_headless(quick_options(dir + "/run"), run), 0);
+  const std::string log = read_text(dir + "/run/session.jsonl");
+  EXPECT_NE(log.find("\"control\":\"operator\",\"episode\""), std::string::npos) << log.substr(0, 2000);
+  EXPECT_NE(log.find("\"event\":\"takeover\""), std::string::npos);
+  EXPECT_NE(log.find("\"event\":\"hand_back\""), std::string::npos);
+  EXPECT_NE(log.find("\"event\":\"reset\""), std::string::npos);
+  // the episode with the takeover is in the data set, operator steps flagged, robot steps not
+  bool mixed = false;
+  for (const RecordedEpisode& e : read_dataset(dir + "/run/dataset.hdf5")) {
+    int flagged = 0;
+    for (uint8_t f : e.intervention) flagged += f;
+    if (e.source == "intervention" && flagged > 0 && flagged < static_cast<int>(e.intervention.size())) mixed = true;
+  }
+  EXPECT_TRUE(mixed);
+  fs::remove_all(dir);
+}
+
+TEST(Console, MalformedScriptNamesTheFileAndTheField) {
+  const std::string dir = temp_dir("bad");
+  fs::create_directories(dir);
+  const std::string script = dir + "/bad.yaml";
+  std::ofstream(script) << "- {at: 3, key: T}\n- {at: 5, kee: H}\n";
+  ConsoleRunOptions run;
+  run.script = script;
+  try {
+    run_headless(quick_options(dir + "/run"), run);
+    FAIL() << "a malformed script was accepted";
+  } catch (const Error& e) {
+    const std::string what = e.what();
+    EXPECT_NE(what.find(script), std::string::npos) << what;
+    EXPECT_NE(what.find("event 2"), std::string::npos) << what;
+    EXPECT_NE(what.find("kee"), std::string::npos) << what;
+  }
+  EXPECT_FALSE(fs::exists(dir + "/run/dataset.hdf5"));  // refused before anything was written
+  fs::remove_all(dir);
+}
+
+}  // namespace dd::ui
