@@ -22,6 +22,8 @@ Command add_eval(CLI::App& app);
 Command add_dataset(CLI::App& app);
 /// `gui`: the operator console, in a window or headless.
 Command add_gui(CLI::App& app);
+/// `render`: a MuJoCo task's cameras as PNG files.
+Command add_render(CLI::App& app);
 /// `inspect`: print a checkpoint's config, parameter count and normalisers.
 Command add_inspect(CLI::App& app);
 

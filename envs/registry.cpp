@@ -3,15 +3,18 @@
 #include "core/config.h"
 #include "envs/nav2d.h"
 #include "envs/nav2d_expert.h"
+#include "envs/mujoco/stack.h"
+#include "envs/mujoco/stack_expert.h"
 
 namespace dd {
 
-std::vector<std::string> task_names() { return {"nav2d", "nav2d_random"}; }
+std::vector<std::string> task_names() { return {"nav2d", "nav2d_random", "stack"}; }
 
 std::unique_ptr<Env> make_env(const std::string& task) {
   if (task == "nav2d") return std::make_unique<Nav2dEnv>();
   if (task == "nav2d_random") return std::make_unique<Nav2dEnv>(nav2d_random_config());
-  throw Error("unknown task '" + task + "' (known: nav2d, nav2d_random; the MuJoCo tasks stack, push and plug are not built yet)");
+  if (task == "stack") return std::make_unique<mj::StackEnv>();
+  throw Error("unknown task '" + task + "' (known: nav2d, nav2d_random, stack; push and plug are not built yet)");
 }
 
 std::unique_ptr<Expert> make_expert(const std::string& task, const std::string& mode) {
@@ -20,6 +23,10 @@ std::unique_ptr<Expert> make_expert(const std::string& task, const std::string& 
     if (mode == "ccw") return std::make_unique<Nav2dExpert>(Nav2dExpert::Mode::kCounterClockwise);
     if (mode == "mixed") return std::make_unique<Nav2dExpert>(Nav2dExpert::Mode::kMixed);
     throw Error("nav2d expert: unknown mode '" + mode + "' (known: cw, ccw, mixed)");
+  }
+  if (task == "stack") {
+    if (mode != "mixed" && mode != "planner") throw Error("stack expert: unknown mode '" + mode + "' (known: planner)");
+    return std::make_unique<mj::StackExpert>();
   }
   throw Error("unknown task '" + task + "' for an expert");
 }
@@ -32,6 +39,8 @@ std::string env_args(const std::string& task) {
            R"(, "time_limit": )" + std::to_string(c.time_limit) + R"(, "obstacle_jitter": )" + std::to_string(c.obstacle_jitter) +
            R"(, "obs": )" + obs + R"(, "action": ["target_x", "target_y"]}})";
   }
+  if (task == "stack")
+    return R"({"env_name": "stack", "type": "diffdagger", "env_kwargs": {"hz": 20, "time_limit": 250, "obs": ["q7", "tcp_pos3", "tcp_rot6d", "opening", "red_pos3", "red_quat4", "green_pos3", "green_quat4"], "action": ["tcp_pos3", "tcp_rot6d", "grip"]}})";
   throw Error("unknown task '" + task + "'");
 }
 

@@ -1,0 +1,99 @@
+#include "envs/mujoco/stack.h"
+
+#include <fmt/format.h>
+
+#include <cmath>
+#include <random>
+
+namespace dd::mj {
+
+std::string stack_xml(const StackConfig& c) {
+  return fmt::format(R"(<mujoco model="stack">{common}
+  <worldbody>
+    <light pos="0.4 -0.6 1.6" dir="0 0.35 -1" diffuse="0.7 0.7 0.7" castshadow="true"/>
+    <light pos="0.4 0.8 1.4" dir="0 -0.5 -1" diffuse="0.3 0.3 0.3" castshadow="false"/>
+    <geom name="floor" type="plane" size="3 3 0.1" pos="0 0 -0.75" material="floor"/>
+    <geom name="table" type="box" size="0.45 0.6 0.375" pos="0.45 0 -0.375" material="table"/>
+    <camera name="left" pos="0.5 -0.95 0.55" xyaxes="1 0 0 0 0.447 0.894" fovy="55"/>
+    <camera name="right" pos="0.5 0.95 0.55" xyaxes="-1 0 0 0 -0.447 0.894" fovy="55"/>
+    <camera name="overview" pos="1.45 -0.75 0.85" xyaxes="0.46 0.89 0 -0.45 0.23 0.86" fovy="45"/>
+    {arm}
+    <body name="red" pos="0.5 0 {rh}">
+      <freejoint name="red"/>
+      <geom type="box" size="{rh} {rh} {rh}" material="red" mass="0.05" condim="4"/>
+    </body>
+    <body name="green" pos="0.5 0.2 {gh}">
+      <freejoint name="green"/>
+      <geom type="box" size="{gh} {gh} {gh}" material="green" mass="0.3" condim="4"/>
+    </body>
+  </worldbody>
+  <actuator>
+{act}  </actuator>
+</mujoco>
+)",
+                     fmt::arg("common", scene_common_xml(std::max(640, c.camera_size), std::max(640, c.camera_size))),
+                     fmt::arg("arm", panda_body_xml(Tool::kGripper, {0, 0, 0})), fmt::arg("rh", c.red_half),
+                     fmt::arg("gh", c.green_half), fmt::arg("act", panda_actuator_xml(Tool::kGripper)));
+}
+
+StackEnv::StackEnv(StackConfig config)
+    : ArmEnv("stack", stack_xml(config), Tool::kGripper, ArmControl::kEndEffectorPose, config.time_limit), config_(config) {
+  red_ = id(model(), mjOBJ_BODY, "red");
+  green_ = id(model(), mjOBJ_BODY, "green");
+  reset(0);
+}
+
+void StackEnv::reset(uint64_t seed) {
+  reset_arm();
+  std::mt19937_64 rng(seed * 0x9E3779B97F4A7C15ull + 11);
+  std::uniform_real_distribution<double> ux(config_.x_range[0], config_.x_range[1]), uy(config_.y_range[0], config_.y_range[1]),
+      uyaw(-M_PI / 4, M_PI / 4);
+  Eigen::Vector2d r, g;
+  do {
+    r = {ux(rng), uy(rng)};
+    g = {ux(rng), uy(rng)};
+  } while ((r - g).norm() < config_.min_separation);
+  mjData* d = mutable_data();
+  auto yaw_quat = [](double yaw) { return Eigen::Quaterniond(Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ())); };
+  set_free_pose(model(), d, red_, {r.x(), r.y(), config_.red_half}, yaw_quat(uyaw(rng)));
+  set_free_pose(model(), d, green_, {g.x(), g.y(), config_.green_half}, yaw_quat(uyaw(rng)));
+  mj_forward(model(), d);
+}
+
+Vec StackEnv::observation() const {
+  Vec o(31);
+  int k = 0;
+  arm_observation(o, k);
+  for (int b : {red_, green_}) {
+    const Eigen::Vector3d p = free_pos(model(), data(), b);
+    const Eigen::Quaterniond q = free_quat(model(), data(), b);
+    for (int i = 0; i < 3; ++i) o[k++] = static_cast<float>(p[i]);
+    o[k++] = static_cast<float>(q.w());
+    o[k++] = static_cast<float>(q.x());
+    o[k++] = static_cast<float>(q.y());
+    o[k++] = static_cast<float>(q.z());
+  }
+  return o;
+}
+
+namespace {
+double yaw_of(const Eigen::Quaterniond& q) {
+  const Eigen::Vector3d x = q.toRotationMatrix().col(0);
+  return std::atan2(x.y(), x.x());
+}
+}  // namespace
+
+double StackEnv::red_yaw() const { return yaw_of(free_quat(model(), data(), red_)); }
+double StackEnv::green_yaw() const { return yaw_of(free_quat(model(), data(), green_)); }
+
+bool StackEnv::red_on_green() const {
+  const Eigen::Vector3d r = red_pos(), g = green_pos();
+  const double rest = g.z() + config_.green_half + config_.red_half;
+  return (r.head<2>() - g.head<2>()).norm() < 0.02 && std::abs(r.z() - rest) < 0.01;
+}
+
+bool StackEnv::check_success() const {
+  return red_on_green() && arm().opening(data()) >= 0.06 && arm().tcp_pos(data()).z() > red_pos().z();
+}
+
+}  // namespace dd::mj

@@ -1,0 +1,187 @@
+// The MuJoCo arm tasks: models load, the IK reaches targets, the experts succeed over seeded
+// episodes, trajectories are deterministic, and bad actions or an exploding simulation end the
+// episode as failed without a crash.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <random>
+
+#include "core/config.h"
+#include "envs/mujoco/planner.h"
+#include "envs/mujoco/stack.h"
+#include "envs/mujoco/stack_expert.h"
+#include "envs/registry.h"
+
+namespace dd::mj {
+namespace {
+
+struct Outcome {
+  bool success = false;
+  int steps = 0;
+};
+
+Outcome run_expert(Env& env, Expert& expert, uint64_t seed) {
+  env.reset(seed);
+  expert.reset(seed);
+  StepResult r;
+  while (!r.done) r = env.step(expert.act(env));
+  return {env.success(), env.steps()};
+}
+
+uint64_t state_hash(const Env& env) {
+  uint64_t h = 1469598103934665603ull;
+  for (double v : env.save_state()) {
+    const float f = static_cast<float>(v);
+    uint32_t bits;
+    std::memcpy(&bits, &f, 4);
+    h = (h ^ bits) * 1099511628211ull;
+  }
+  return h;
+}
+
+}  // namespace
+
+TEST(Mujoco, StackModelLoadsWithTheDeclaredSizes) {
+  StackEnv env;
+  EXPECT_EQ(env.obs_dim(), 31);
+  EXPECT_EQ(env.action_dim(), 10);
+  EXPECT_EQ(env.model()->nu, 9);  // 7 joint servos, 2 finger servos
+  const Vec o = env.observation();
+  ASSERT_EQ(o.size(), 31);
+  EXPECT_TRUE(o.allFinite());
+  // the TCP starts above the table, pointing down
+  EXPECT_GT(env.arm().tcp_pos(env.data()).z(), 0.15);
+  EXPECT_LT(env.arm().tcp_rot(env.data())(2, 2), -0.95);
+}
+
+TEST(Mujoco, IkReachesTargetsWithinTwoMillimetres) {
+  StackEnv env;
+  const Eigen::Vector3d targets[] = {{0.45, 0.0, 0.10}, {0.60, 0.15, 0.05}, {0.40, -0.20, 0.20}, {0.55, 0.10, 0.02}};
+  for (const auto& p : targets) {
+    env.reset(1);
+    const Eigen::Matrix3d R = tool_down(0.3);
+    Vec a(10);
+    a.head<3>() = p.cast<float>();
+    a.segment<6>(3) = rot6d(R).cast<float>();
+    a[9] = 0;
+    for (int i = 0; i < 40; ++i) env.step(a);
+    const Eigen::Vector3d reached = env.arm().tcp_pos(env.data());
+    EXPECT_LT((reached - p).norm(), 0.002) << "target " << p.transpose() << " reached " << reached.transpose();
+    const Eigen::AngleAxisd err(R * env.arm().tcp_rot(env.data()).transpose());
+    EXPECT_LT(err.angle(), 0.02);
+  }
+}
+
+TEST(Mujoco, StackExpertSucceedsOverSeededEpisodes) {
+  StackEnv env;
+  StackExpert expert;
+  int ok = 0, steps = 0;
+  const int n = 10;
+  for (int s = 0; s < n; ++s) {
+    const Outcome o = run_expert(env, expert, 100 + s);
+    ok += o.success;
+    if (o.success) steps += o.steps;
+  }
+  std::printf("stack expert: %d/%d, mean %.1f steps\n", ok, n, ok ? double(steps) / ok : 0.0);
+  EXPECT_GE(ok, 9);
+}
+
+TEST(Mujoco, StackExpertTakesOverMidEpisode) {
+  StackEnv env;
+  StackExpert expert;
+  int ok = 0;
+  for (int s = 0; s < 4; ++s) {
+    env.reset(300 + s);
+    // a wandering robot first: random reachable poses with the gripper toggling
+    std::mt19937 rng(s);
+    std::uniform_real_distribution<float> u(-1, 1);
+    for (int t = 0; t < 30; ++t) {
+      Vec a(10);
+      a.head<3>() << 0.5f + 0.1f * u(rng), 0.15f * u(rng), 0.12f + 0.05f * u(rng);
+      a.segment<6>(3) = rot6d(tool_down(0.4 * u(rng))).cast<float>();
+      a[9] = u(rng) > 0 ? 1.f : 0.f;
+      env.step(a);
+    }
+    expert.reset(300 + s);
+    env.set_time_limit(env.steps() + 250);
+    StepResult r;
+    while (!r.done) r = env.step(expert.act(env));
+    ok += env.success();
+  }
+  EXPECT_GE(ok, 3);
+}
+
+TEST(Mujoco, StackIsDeterministic) {
+  StackEnv a, b;
+  StackExpert ea, eb;
+  a.reset(7);
+  b.reset(7);
+  ea.reset(7);
+  eb.reset(7);
+  for (int t = 0; t < 60; ++t) {
+    a.step(ea.act(a));
+    b.step(eb.act(b));
+  }
+  EXPECT_EQ(state_hash(a), state_hash(b));
+  // restoring a saved state continues the same trajectory (to rounding: MuJoCo recomputes derived
+  // quantities on restore)
+  const auto saved = a.save_state();
+  const Vec act = ea.act(a);
+  a.step(act);
+  const auto after = a.save_state();
+  a.restore_state(saved);
+  a.step(act);
+  const auto again = a.save_state();
+  ASSERT_EQ(after.size(), again.size());
+  double worst = 0;
+  for (size_t i = 0; i < after.size(); ++i) worst = std::max(worst, std::abs(after[i] - again[i]));
+  EXPECT_LT(worst, 1e-9);
+}
+
+TEST(Mujoco, NonFiniteActionEndsTheEpisodeAsFailed) {
+  StackEnv env;
+  env.reset(3);
+  Vec a = Vec::Zero(10);
+  a[0] = NAN;
+  const StepResult r = env.step(a);
+  EXPECT_TRUE(r.done);
+  EXPECT_TRUE(r.failed);
+  EXPECT_NE(r.warning.find("non-finite"), std::string::npos);
+  EXPECT_TRUE(env.step(Vec::Zero(10)).done);  // stays over
+}
+
+TEST(Mujoco, ExplodingSimulationEndsTheEpisodeAsFailed) {
+  StackEnv env;
+  env.reset(4);
+  env.mutable_data()->qvel[0] = 1e9;  // an absurd joint velocity
+  StepResult r;
+  Vec a(10);
+  a.head<3>() << 0.5f, 0.f, 0.2f;
+  a.segment<6>(3) = rot6d(tool_down(0)).cast<float>();
+  a[9] = 0;
+  for (int i = 0; i < 5 && !r.done; ++i) r = env.step(a);
+  EXPECT_TRUE(r.done);
+  EXPECT_TRUE(r.failed);
+  EXPECT_NE(r.warning.find("unstable"), std::string::npos) << r.warning;
+}
+
+TEST(Mujoco, PlannerGoesAroundAnObstacle) {
+  const std::vector<Box3> wall = {{{0.45, -0.1, 0.0}, {0.5, 0.1, 0.4}}};
+  const Eigen::Vector3d a(0.3, 0, 0.1), b(0.7, 0, 0.1);
+  const auto path = plan_path(a, b, wall, 1);
+  ASSERT_GE(path.size(), 3u);
+  EXPECT_TRUE(path.front().isApprox(a));
+  EXPECT_TRUE(path.back().isApprox(b));
+  for (size_t i = 1; i < path.size(); ++i) EXPECT_TRUE(segment_free(path[i - 1], path[i], wall, PlannerConfig{}));
+}
+
+TEST(Mujoco, RegistryBuildsStack) {
+  auto env = make_env("stack");
+  auto expert = make_expert("stack", "planner");
+  EXPECT_EQ(env->name(), "stack");
+  EXPECT_THROW(make_expert("stack", "cw"), Error);
+}
+
+}  // namespace dd::mj
