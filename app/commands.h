@@ -24,6 +24,8 @@ Command add_dataset(CLI::App& app);
 Command add_gui(CLI::App& app);
 /// `render`: a MuJoCo task's cameras as PNG files.
 Command add_render(CLI::App& app);
+/// `collect`: expert demonstrations into a data set.
+Command add_collect(CLI::App& app);
 /// `inspect`: print a checkpoint's config, parameter count and normalisers.
 Command add_inspect(CLI::App& app);
 

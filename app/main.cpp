@@ -25,6 +25,7 @@ int main(int argc, char** argv) {
   add(dd::app::add_dagger);
   add(dd::app::add_gui);
   add(dd::app::add_render);
+  add(dd::app::add_collect);
   add(dd::app::add_eval);
   add(dd::app::add_dataset);
   add(dd::app::add_bimodal);
