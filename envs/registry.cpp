@@ -5,16 +5,19 @@
 #include "envs/nav2d_expert.h"
 #include "envs/mujoco/stack.h"
 #include "envs/mujoco/stack_expert.h"
+#include "envs/mujoco/plug.h"
+#include "envs/mujoco/plug_expert.h"
 
 namespace dd {
 
-std::vector<std::string> task_names() { return {"nav2d", "nav2d_random", "stack"}; }
+std::vector<std::string> task_names() { return {"nav2d", "nav2d_random", "stack", "plug"}; }
 
 std::unique_ptr<Env> make_env(const std::string& task) {
   if (task == "nav2d") return std::make_unique<Nav2dEnv>();
   if (task == "nav2d_random") return std::make_unique<Nav2dEnv>(nav2d_random_config());
   if (task == "stack") return std::make_unique<mj::StackEnv>();
-  throw Error("unknown task '" + task + "' (known: nav2d, nav2d_random, stack; push and plug are not built yet)");
+  if (task == "plug") return std::make_unique<mj::PlugEnv>();
+  throw Error("unknown task '" + task + "' (known: nav2d, nav2d_random, stack, plug; push is not built yet)");
 }
 
 std::unique_ptr<Expert> make_expert(const std::string& task, const std::string& mode) {
@@ -27,6 +30,10 @@ std::unique_ptr<Expert> make_expert(const std::string& task, const std::string& 
   if (task == "stack") {
     if (mode != "mixed" && mode != "planner") throw Error("stack expert: unknown mode '" + mode + "' (known: planner)");
     return std::make_unique<mj::StackExpert>();
+  }
+  if (task == "plug") {
+    if (mode != "mixed" && mode != "planner") throw Error("plug expert: unknown mode '" + mode + "' (known: planner)");
+    return std::make_unique<mj::PlugExpert>();
   }
   throw Error("unknown task '" + task + "' for an expert");
 }
@@ -41,6 +48,8 @@ std::string env_args(const std::string& task) {
   }
   if (task == "stack")
     return R"({"env_name": "stack", "type": "diffdagger", "env_kwargs": {"hz": 20, "time_limit": 250, "obs": ["q7", "tcp_pos3", "tcp_rot6d", "opening", "red_pos3", "red_quat4", "green_pos3", "green_quat4"], "action": ["tcp_pos3", "tcp_rot6d", "grip"]}})";
+  if (task == "plug")
+    return R"({"env_name": "plug", "type": "diffdagger", "env_kwargs": {"hz": 20, "time_limit": 500, "clearance_mm": 1, "obs": ["q7", "tcp_pos3", "tcp_rot6d", "opening", "charger_pos3", "charger_quat4", "socket_pos3", "socket_quat4"], "action": ["tcp_pos3", "tcp_rot6d", "grip"]}})";
   throw Error("unknown task '" + task + "'");
 }
 

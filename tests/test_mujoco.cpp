@@ -12,6 +12,8 @@
 #include "envs/mujoco/planner.h"
 #include "envs/mujoco/stack.h"
 #include "envs/mujoco/stack_expert.h"
+#include "envs/mujoco/plug.h"
+#include "envs/mujoco/plug_expert.h"
 #include "envs/registry.h"
 
 namespace dd::mj {
@@ -167,6 +169,46 @@ TEST(Mujoco, ExplodingSimulationEndsTheEpisodeAsFailed) {
   EXPECT_NE(r.warning.find("unstable"), std::string::npos) << r.warning;
 }
 
+TEST(Mujoco, PlugModelLoadsWithTheDeclaredSizes) {
+  PlugEnv env;
+  EXPECT_EQ(env.obs_dim(), 31);
+  EXPECT_EQ(env.action_dim(), 10);
+  const Vec o = env.observation();
+  ASSERT_EQ(o.size(), 31);
+  EXPECT_TRUE(o.allFinite());
+  // 1 mm clearance a side between prong and socket, and the charger starts out of the socket
+  EXPECT_NEAR(env.config().socket_half - env.config().prong_half, 0.001, 1e-9);
+  EXPECT_FALSE(env.inserted());
+}
+
+TEST(Mujoco, PlugExpertInsertsOverSeededEpisodes) {
+  PlugEnv env;
+  PlugExpert expert;
+  int ok = 0, steps = 0;
+  const int n = 6;
+  for (int s = 0; s < n; ++s) {
+    const Outcome o = run_expert(env, expert, 200 + s);
+    ok += o.success;
+    if (o.success) steps += o.steps;
+  }
+  std::printf("plug expert: %d/%d, mean %.1f steps\n", ok, n, ok ? double(steps) / ok : 0.0);
+  EXPECT_GE(ok, 5);
+}
+
+TEST(Mujoco, PlugIsDeterministic) {
+  PlugEnv a, b;
+  PlugExpert ea, eb;
+  a.reset(9);
+  b.reset(9);
+  ea.reset(9);
+  eb.reset(9);
+  for (int t = 0; t < 80; ++t) {
+    a.step(ea.act(a));
+    b.step(eb.act(b));
+  }
+  EXPECT_EQ(state_hash(a), state_hash(b));
+}
+
 TEST(Mujoco, PlannerGoesAroundAnObstacle) {
   const std::vector<Box3> wall = {{{0.45, -0.1, 0.0}, {0.5, 0.1, 0.4}}};
   const Eigen::Vector3d a(0.3, 0, 0.1), b(0.7, 0, 0.1);
@@ -177,11 +219,13 @@ TEST(Mujoco, PlannerGoesAroundAnObstacle) {
   for (size_t i = 1; i < path.size(); ++i) EXPECT_TRUE(segment_free(path[i - 1], path[i], wall, PlannerConfig{}));
 }
 
-TEST(Mujoco, RegistryBuildsStack) {
-  auto env = make_env("stack");
-  auto expert = make_expert("stack", "planner");
-  EXPECT_EQ(env->name(), "stack");
-  EXPECT_THROW(make_expert("stack", "cw"), Error);
+TEST(Mujoco, RegistryBuildsTheArmTasks) {
+  for (const std::string task : {"stack", "plug"}) {
+    auto env = make_env(task);
+    auto expert = make_expert(task, "planner");
+    EXPECT_EQ(env->name(), task);
+    EXPECT_THROW(make_expert(task, "cw"), Error);
+  }
 }
 
 }  // namespace dd::mj

@@ -101,13 +101,25 @@ Vec PickPlaceExpert::act(const Env& base) {
 
   if (holding && closing_ >= 6) {
     // carry: over the target, then lower; the final approach corrects for the grasp offset
-    const Eigen::Matrix3d R = tool_down(have_yaw_ ? yaw_ : tool);
+    double carry_yaw = have_yaw_ ? yaw_ : tool, yaw_err = 0;
+    if (s.align_yaw) {
+      yaw_err = std::remainder(s.place_yaw - s.object_yaw, M_PI / 2);
+      carry_yaw = tool + std::clamp(yaw_err, -0.15, 0.15);
+    }
+    const Eigen::Matrix3d R = tool_down(carry_yaw);
     const Eigen::Vector3d offset = tcp - s.object;
     const Eigen::Vector3d place = s.place + offset;
     const Eigen::Vector3d above = place + Eigen::Vector3d(0, 0, s.approach);
     const double xy = (s.object.head<2>() - s.place.head<2>()).norm();
-    if (!lowering_ && xy < 0.005 && std::abs(tcp.z() - above.z()) < 0.01) lowering_ = true;
+    if (!lowering_ && xy < 0.005 && std::abs(yaw_err) < 0.03 && std::abs(tcp.z() - above.z()) < 0.01) lowering_ = true;
     if (lowering_ && xy > 0.015) lowering_ = false;  // knocked off: go back up over the target
+    if (!lowering_ && (s.object.head<2>() - s.place.head<2>()).norm() > 0.02 && s.object.z() < s.place.z() + s.lift) {
+      // lift straight up out of wherever the object was before moving across
+      if (!have_target_) target_ = tcp;
+      target_ = Eigen::Vector3d(tcp.x(), tcp.y(), std::min(target_.z(), tcp.z() + 0.02) + slow);
+      path_goal_ = {1e9, 0, 0};
+      return command(target_, R, 1.0);
+    }
     if (!lowering_) {
       const double step = (tcp - above).norm() < 0.03 ? slow * 0.4 : speed;
       return command(follow(*env, s, above, step, true), R, 1.0);

@@ -26,8 +26,11 @@ struct PickPlaceState {
   double object_yaw = 0;            // its yaw (grasped at the nearest quarter turn)
   double width = 0.04;              // its width between the fingers [m]
   Eigen::Vector3d place{0, 0, 0};   // where the object's origin must end up
+  double place_yaw = 0;             // the yaw the object must have in place (with align_yaw)
+  bool align_yaw = false;           // turn the object to place_yaw (a quarter-turn symmetry) while carrying
   double approach = 0.08;           // height above `place` from which it is lowered [m]
   double lower_speed = 0.006;       // lowering speed [m per step]
+  double lift = 0.06;               // after grasping, rise straight up until this high above `place` [m]
   bool placed = false;              // the object is in place (time to let go)
   std::vector<Box3> obstacles;      // to plan around (the carried object's size is added)
   double hang = 0.03;               // how far the carried object hangs below the TCP [m]

@@ -1,0 +1,138 @@
+#include "envs/mujoco/plug.h"
+
+#include <fmt/format.h>
+
+#include <cmath>
+#include <random>
+
+namespace dd::mj {
+namespace {
+constexpr double kWall = 0.035;       // socket depth and receptacle height [m]
+constexpr double kHandleHalfZ = 0.015;
+constexpr double kProngHalfZ = 0.015;
+constexpr double kDockWall = 0.02;
+}  // namespace
+
+std::string plug_xml(const PlugConfig& c) {
+  // the receptacle and the dock are mocap bodies: fixed in the physics, placed per episode
+  const double s = c.socket_half, w = 0.03;  // socket half-width, wall thickness
+  const double o = s + w;                    // outer half-width
+  std::string receptacle, dock;
+  for (const auto& [x, y, hx, hy] : std::vector<std::array<double, 4>>{{0, s + w / 2, o, w / 2}, {0, -s - w / 2, o, w / 2},
+                                                                        {s + w / 2, 0, w / 2, s}, {-s - w / 2, 0, w / 2, s}})
+    receptacle += fmt::format(R"(      <geom type="box" pos="{} {} {}" size="{} {} {}" material="blue"/>
+)",
+                              x, y, kWall / 2, hx, hy, kWall / 2);
+  const double d = 0.014, dw = 0.012;  // dock hole half-width (loose), wall thickness
+  for (const auto& [x, y, hx, hy] : std::vector<std::array<double, 4>>{{0, d + dw / 2, d + dw, dw / 2}, {0, -d - dw / 2, d + dw, dw / 2},
+                                                                        {d + dw / 2, 0, dw / 2, d}, {-d - dw / 2, 0, dw / 2, d}})
+    dock += fmt::format(R"(      <geom type="box" pos="{} {} {}" size="{} {} {}" material="dark"/>
+)",
+                        x, y, kDockWall / 2, hx, hy, kDockWall / 2);
+  return fmt::format(R"(<mujoco model="plug">{common}
+  <worldbody>
+    <light pos="0.4 -0.6 1.6" dir="0 0.35 -1" diffuse="0.7 0.7 0.7" castshadow="true"/>
+    <light pos="0.4 0.8 1.4" dir="0 -0.5 -1" diffuse="0.3 0.3 0.3" castshadow="false"/>
+    <geom name="floor" type="plane" size="3 3 0.1" pos="0 0 -0.75" material="floor"/>
+    <geom name="table" type="box" size="0.45 0.6 0.375" pos="0.45 0 -0.375" material="table"/>
+    <camera name="left" pos="0.5 -0.95 0.55" xyaxes="1 0 0 0 0.447 0.894" fovy="55"/>
+    <camera name="right" pos="0.5 0.95 0.55" xyaxes="-1 0 0 0 -0.447 0.894" fovy="55"/>
+    <camera name="overview" pos="1.45 -0.75 0.85" xyaxes="0.46 0.89 0 -0.45 0.23 0.86" fovy="45"/>
+    {arm}
+    <body name="receptacle" mocap="true" pos="0.5 0.15 0">
+{receptacle}      <site name="socket" pos="0 0 0" size="0.004" rgba="1 1 0 0.5" group="2"/>
+    </body>
+    <body name="dock" mocap="true" pos="0.5 -0.15 0">
+{dock}    </body>
+    <body name="charger" pos="0.5 -0.15 0.045">
+      <freejoint name="charger"/>
+      <geom name="handle" type="box" size="{hh} {hh} {hz}" material="white" mass="0.04" condim="4"/>
+      <geom name="prong" type="box" pos="0 0 -{pz2}" size="{ph} {ph} {pz}" material="red" mass="0.01" condim="4" friction="0.3 0.005 0.0001"/>
+    </body>
+  </worldbody>
+  <actuator>
+{act}  </actuator>
+</mujoco>
+)",
+                     fmt::arg("common", scene_common_xml(std::max(640, c.camera_size), std::max(640, c.camera_size))),
+                     fmt::arg("arm", panda_body_xml(Tool::kGripper, {0, 0, 0})), fmt::arg("receptacle", receptacle),
+                     fmt::arg("dock", dock), fmt::arg("hh", c.handle_half), fmt::arg("hz", kHandleHalfZ),
+                     fmt::arg("pz2", kHandleHalfZ + kProngHalfZ), fmt::arg("ph", c.prong_half), fmt::arg("pz", kProngHalfZ),
+                     fmt::arg("act", panda_actuator_xml(Tool::kGripper)));
+}
+
+PlugEnv::PlugEnv(PlugConfig config)
+    : ArmEnv("plug", plug_xml(config), Tool::kGripper, ArmControl::kEndEffectorPose, config.time_limit), config_(config) {
+  charger_ = id(model(), mjOBJ_BODY, "charger");
+  receptacle_ = model()->body_mocapid[id(model(), mjOBJ_BODY, "receptacle")];
+  dock_ = model()->body_mocapid[id(model(), mjOBJ_BODY, "dock")];
+  reset(0);
+}
+
+void PlugEnv::reset(uint64_t seed) {
+  reset_arm();
+  std::mt19937_64 rng(seed * 0x9E3779B97F4A7C15ull + 23);
+  std::uniform_real_distribution<double> u(0, 1);
+  mjData* d = mutable_data();
+  const Eigen::Vector2d dock(0.42 + 0.18 * u(rng), -0.22 + 0.14 * u(rng));
+  const Eigen::Vector2d socket(0.45 + 0.15 * u(rng), 0.08 + 0.14 * u(rng));
+  const double dock_yaw = (u(rng) - 0.5) * 0.6;
+  socket_yaw_ = (u(rng) - 0.5) * 0.6;
+  auto place = [&](int mocap, const Eigen::Vector2d& p, double yaw) {
+    d->mocap_pos[3 * mocap] = p.x();
+    d->mocap_pos[3 * mocap + 1] = p.y();
+    d->mocap_pos[3 * mocap + 2] = 0;
+    d->mocap_quat[4 * mocap] = std::cos(yaw / 2);
+    d->mocap_quat[4 * mocap + 1] = 0;
+    d->mocap_quat[4 * mocap + 2] = 0;
+    d->mocap_quat[4 * mocap + 3] = std::sin(yaw / 2);
+  };
+  place(receptacle_, socket, socket_yaw_);
+  place(dock_, dock, dock_yaw);
+  const double charger_yaw = dock_yaw + (u(rng) - 0.5) * 0.2;
+  set_free_pose(model(), d, charger_, {dock.x(), dock.y(), 2 * kProngHalfZ + kHandleHalfZ + 0.001},
+                Eigen::Quaterniond(Eigen::AngleAxisd(charger_yaw, Eigen::Vector3d::UnitZ())));
+  mj_forward(model(), d);
+}
+
+Eigen::Vector3d PlugEnv::socket_pos() const {
+  const double* p = data()->mocap_pos + 3 * receptacle_;
+  return {p[0], p[1], p[2]};
+}
+
+Eigen::Vector3d PlugEnv::dock_pos() const {
+  const double* p = data()->mocap_pos + 3 * dock_;
+  return {p[0], p[1], p[2]};
+}
+
+double PlugEnv::seated_height() const { return kWall + kHandleHalfZ; }
+
+double PlugEnv::charger_yaw() const {
+  const Eigen::Vector3d x = free_quat(model(), data(), charger_).toRotationMatrix().col(0);
+  return std::atan2(x.y(), x.x());
+}
+
+bool PlugEnv::inserted() const {
+  const Eigen::Vector3d c = charger_pos(), s = socket_pos();
+  return (c.head<2>() - s.head<2>()).norm() < 0.002 && c.z() < seated_height() + 0.003;
+}
+
+Vec PlugEnv::observation() const {
+  Vec o(31);
+  int k = 0;
+  arm_observation(o, k);
+  const Eigen::Vector3d p = charger_pos();
+  const Eigen::Quaterniond q = free_quat(model(), data(), charger_);
+  for (int i = 0; i < 3; ++i) o[k++] = static_cast<float>(p[i]);
+  o[k++] = static_cast<float>(q.w());
+  o[k++] = static_cast<float>(q.x());
+  o[k++] = static_cast<float>(q.y());
+  o[k++] = static_cast<float>(q.z());
+  const Eigen::Vector3d s = socket_pos();
+  for (int i = 0; i < 3; ++i) o[k++] = static_cast<float>(s[i]);
+  const double* mq = data()->mocap_quat + 4 * receptacle_;
+  for (int i = 0; i < 4; ++i) o[k++] = static_cast<float>(mq[i]);
+  return o;
+}
+
+}  // namespace dd::mj

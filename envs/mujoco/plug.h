@@ -1,0 +1,51 @@
+// Plugging: a charger stands in a loose dock; the arm picks it up, turns it to the receptacle's yaw
+// and inserts its square prong (18 mm) into the receptacle's square socket (20 mm: 1 mm clearance a
+// side). T_L = 500 steps at 20 Hz.
+//   observation (31): joints (7), TCP position (3), TCP 6-D rotation (6), gripper opening (1),
+//                     charger position (3) and quaternion (4), receptacle position (3) and quaternion (4)
+//   action      (10): TCP position (3), TCP 6-D rotation (6), gripper (0 open .. 1 closed)
+//   success: fully inserted: the charger's handle rests on the receptacle (within 3 mm of the seated
+//            height) with the prong centred in the socket (within 2 mm)
+#pragma once
+
+#include "envs/mujoco/arm_env.h"
+
+namespace dd::mj {
+
+struct PlugConfig {
+  double prong_half = 0.009;     // prong half-width [m]
+  double socket_half = 0.010;    // socket half-width [m]
+  double handle_half = 0.02;     // handle half-width (grasped) [m]
+  int time_limit = 500;
+  int camera_size = 96;
+};
+
+class PlugEnv : public ArmEnv {
+ public:
+  explicit PlugEnv(PlugConfig config = {});
+  int obs_dim() const override { return 31; }
+  void reset(uint64_t seed) override;
+  Vec observation() const override;
+
+  const PlugConfig& config() const { return config_; }
+  Eigen::Vector3d charger_pos() const { return free_pos(model(), data(), charger_); }
+  double charger_yaw() const;
+  Eigen::Vector3d socket_pos() const;  // the socket's centre on the table
+  double socket_yaw() const { return socket_yaw_; }
+  Eigen::Vector3d dock_pos() const;
+  /// The charger origin's height when fully inserted.
+  double seated_height() const;
+  bool inserted() const;
+
+ protected:
+  bool check_success() const override { return inserted(); }
+
+ private:
+  PlugConfig config_;
+  int charger_ = -1, receptacle_ = -1, dock_ = -1;
+  double socket_yaw_ = 0;
+};
+
+std::string plug_xml(const PlugConfig& config);
+
+}  // namespace dd::mj
