@@ -7,17 +7,20 @@
 #include "envs/mujoco/stack_expert.h"
 #include "envs/mujoco/plug.h"
 #include "envs/mujoco/plug_expert.h"
+#include "envs/mujoco/push.h"
+#include "envs/mujoco/push_expert.h"
 
 namespace dd {
 
-std::vector<std::string> task_names() { return {"nav2d", "nav2d_random", "stack", "plug"}; }
+std::vector<std::string> task_names() { return {"nav2d", "nav2d_random", "stack", "push", "plug"}; }
 
 std::unique_ptr<Env> make_env(const std::string& task) {
   if (task == "nav2d") return std::make_unique<Nav2dEnv>();
   if (task == "nav2d_random") return std::make_unique<Nav2dEnv>(nav2d_random_config());
   if (task == "stack") return std::make_unique<mj::StackEnv>();
   if (task == "plug") return std::make_unique<mj::PlugEnv>();
-  throw Error("unknown task '" + task + "' (known: nav2d, nav2d_random, stack, plug; push is not built yet)");
+  if (task == "push") return std::make_unique<mj::PushEnv>();
+  throw Error("unknown task '" + task + "' (known: nav2d, nav2d_random, stack, push, plug)");
 }
 
 std::unique_ptr<Expert> make_expert(const std::string& task, const std::string& mode) {
@@ -30,6 +33,12 @@ std::unique_ptr<Expert> make_expert(const std::string& task, const std::string& 
   if (task == "stack") {
     if (mode != "mixed" && mode != "planner") throw Error("stack expert: unknown mode '" + mode + "' (known: planner)");
     return std::make_unique<mj::StackExpert>();
+  }
+  if (task == "push") {
+    if (mode == "cw") return std::make_unique<mj::PushExpert>(mj::PushExpert::Mode::kClockwise);
+    if (mode == "ccw") return std::make_unique<mj::PushExpert>(mj::PushExpert::Mode::kCounterClockwise);
+    if (mode == "mixed") return std::make_unique<mj::PushExpert>(mj::PushExpert::Mode::kMixed);
+    throw Error("push expert: unknown mode '" + mode + "' (known: cw, ccw, mixed)");
   }
   if (task == "plug") {
     if (mode != "mixed" && mode != "planner") throw Error("plug expert: unknown mode '" + mode + "' (known: planner)");
@@ -48,6 +57,8 @@ std::string env_args(const std::string& task) {
   }
   if (task == "stack")
     return R"({"env_name": "stack", "type": "diffdagger", "env_kwargs": {"hz": 20, "time_limit": 250, "obs": ["q7", "tcp_pos3", "tcp_rot6d", "opening", "red_pos3", "red_quat4", "green_pos3", "green_quat4"], "action": ["tcp_pos3", "tcp_rot6d", "grip"]}})";
+  if (task == "push")
+    return R"({"env_name": "push", "type": "diffdagger", "env_kwargs": {"hz": 20, "time_limit": 250, "goal": [0.45, 0.0, 0.0], "obs": ["q7", "tip_pos3", "tip_rot6d", "block_x", "block_y", "block_cos", "block_sin"], "action": ["dq7"]}})";
   if (task == "plug")
     return R"({"env_name": "plug", "type": "diffdagger", "env_kwargs": {"hz": 20, "time_limit": 500, "clearance_mm": 1, "obs": ["q7", "tcp_pos3", "tcp_rot6d", "opening", "charger_pos3", "charger_quat4", "socket_pos3", "socket_quat4"], "action": ["tcp_pos3", "tcp_rot6d", "grip"]}})";
   throw Error("unknown task '" + task + "'");

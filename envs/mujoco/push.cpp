@@ -1,0 +1,132 @@
+#include "envs/mujoco/push.h"
+
+#include <fmt/format.h>
+
+#include <cmath>
+#include <random>
+
+namespace dd::mj {
+namespace {
+
+// The T: a bar 16 x 4 cm on a stem 4 x 12 cm, 4 cm tall; coordinates relative to the centre of mass.
+constexpr double kComY = 0.0057;
+struct Rect {
+  double x0, x1, y0, y1;
+};
+constexpr Rect kBar{-0.08, 0.08, 0.02 - kComY, 0.06 - kComY};
+constexpr Rect kStem{-0.02, 0.02, -0.10 - kComY, 0.02 - kComY};
+constexpr double kHalfZ = 0.02;
+
+double rect_distance(const Rect& r, const Eigen::Vector2d& p) {
+  const double dx = std::max({r.x0 - p.x(), 0.0, p.x() - r.x1}), dy = std::max({r.y0 - p.y(), 0.0, p.y() - r.y1});
+  if (dx > 0 || dy > 0) return std::hypot(dx, dy);
+  return -std::min({p.x() - r.x0, r.x1 - p.x(), p.y() - r.y0, r.y1 - p.y()});
+}
+
+std::string t_geoms(const char* material, bool collide, double z) {
+  std::string out;
+  for (const Rect& r : {kBar, kStem})
+    out += fmt::format(R"(      <geom type="box" pos="{} {} {}" size="{} {} {}" material="{}" {}/>
+)",
+                       (r.x0 + r.x1) / 2, (r.y0 + r.y1) / 2, z, (r.x1 - r.x0) / 2, (r.y1 - r.y0) / 2, kHalfZ, material,
+                       collide ? R"(contype="2" conaffinity="2" mass="0.1")" : R"(class="visual")");
+  return out;
+}
+
+}  // namespace
+
+std::vector<TEdge> t_outline() {
+  const Rect b = kBar, s = kStem;
+  return {{{b.x0, b.y1}, {b.x1, b.y1}, {0, 1}},  {{b.x0, b.y0}, {b.x0, b.y1}, {-1, 0}}, {{b.x1, b.y0}, {b.x1, b.y1}, {1, 0}},
+          {{b.x0, b.y0}, {s.x0, b.y0}, {0, -1}}, {{s.x1, b.y0}, {b.x1, b.y0}, {0, -1}}, {{s.x0, s.y0}, {s.x0, s.y1}, {-1, 0}},
+          {{s.x1, s.y0}, {s.x1, s.y1}, {1, 0}},  {{s.x0, s.y0}, {s.x1, s.y0}, {0, -1}}};
+}
+
+double t_distance(const Eigen::Vector2d& p) { return std::min(rect_distance(kBar, p), rect_distance(kStem, p)); }
+
+std::string push_xml(const PushConfig& c) {
+  return fmt::format(R"(<mujoco model="push">{common}
+  <worldbody>
+    <light pos="0.4 -0.6 1.6" dir="0 0.35 -1" diffuse="0.7 0.7 0.7" castshadow="true"/>
+    <light pos="0.4 0.8 1.4" dir="0 -0.5 -1" diffuse="0.3 0.3 0.3" castshadow="false"/>
+    <geom name="floor" type="plane" size="3 3 0.1" pos="0 0 -0.75" material="floor"/>
+    <geom name="table" type="box" size="0.45 0.6 0.375" pos="0.45 0 -0.375" material="table"/>
+    <camera name="top" pos="0.55 0 1.05" xyaxes="0 -1 0 1 0 0" fovy="45"/>
+    <camera name="overview" pos="1.45 -0.75 0.85" xyaxes="0.46 0.89 0 -0.45 0.23 0.86" fovy="45"/>
+    {arm}
+    <body name="goal" pos="{gx} {gy} 0.0005" euler="0 0 {gyaw}">
+{goal}    </body>
+    <body name="tblock" pos="0 0 {z}">
+      <joint name="block_x" type="slide" axis="1 0 0" damping="4" frictionloss="0.4" armature="0.05"/>
+      <joint name="block_y" type="slide" axis="0 1 0" damping="4" frictionloss="0.4" armature="0.05"/>
+      <joint name="block_yaw" type="hinge" axis="0 0 1" damping="0.05" frictionloss="0.01" armature="0.001"/>
+{block}    </body>
+  </worldbody>
+  <actuator>
+{act}  </actuator>
+</mujoco>
+)",
+                     fmt::arg("common", scene_common_xml(std::max(640, c.camera_size), std::max(640, c.camera_size))),
+                     fmt::arg("arm", panda_body_xml(Tool::kStick, {0, 0, 0})), fmt::arg("gx", c.goal.x()),
+                     fmt::arg("gy", c.goal.y()), fmt::arg("gyaw", c.goal.z()), fmt::arg("goal", t_geoms("goal", false, -kHalfZ + 0.0005)),
+                     fmt::arg("z", kHalfZ + 0.001), fmt::arg("block", t_geoms("blue", true, 0)),
+                     fmt::arg("act", panda_actuator_xml(Tool::kStick)));
+}
+
+PushEnv::PushEnv(PushConfig config)
+    : ArmEnv("push", push_xml(config), Tool::kStick, ArmControl::kJointDelta, config.time_limit), config_(config) {
+  max_joint_step = 0.08;
+  qx_ = model()->jnt_qposadr[id(model(), mjOBJ_JOINT, "block_x")];
+  qy_ = model()->jnt_qposadr[id(model(), mjOBJ_JOINT, "block_y")];
+  qyaw_ = model()->jnt_qposadr[id(model(), mjOBJ_JOINT, "block_yaw")];
+  // the stick collides with the block (contype 2) as well as with the table
+  const int stick = id(model(), mjOBJ_GEOM, "stick");
+  model_->geom_contype[stick] = 3;
+  model_->geom_conaffinity[stick] = 3;
+  reset(0);
+}
+
+void PushEnv::reset(uint64_t seed) {
+  reset_arm();
+  std::mt19937_64 rng(seed * 0x9E3779B97F4A7C15ull + 37);
+  std::uniform_real_distribution<double> u(0, 1);
+  mjData* d = mutable_data();
+  d->qpos[qx_] = config_.goal.x() - 0.07 + 0.14 * u(rng);
+  d->qpos[qy_] = config_.goal.y() - 0.12 + 0.24 * u(rng);
+  d->qpos[qyaw_] = config_.goal.z() + M_PI + (u(rng) - 0.5) * config_.start_yaw_spread;
+  // the stick starts above the table, clear of the block
+  mj_forward(model(), d);
+  const Vec7 q = joint_targets({0.25, 0.0, 0.10});
+  arm_.set_posture(d, q);
+  mj_forward(model(), d);
+}
+
+Eigen::Vector3d PushEnv::block() const {
+  return {data()->qpos[qx_], data()->qpos[qy_], std::remainder(data()->qpos[qyaw_], 2 * M_PI)};
+}
+
+bool PushEnv::at_goal() const {
+  const Eigen::Vector3d b = block();
+  return (b.head<2>() - config_.goal.head<2>()).norm() < config_.pos_tolerance &&
+         std::abs(std::remainder(b.z() - config_.goal.z(), 2 * M_PI)) < config_.yaw_tolerance;
+}
+
+Vec7 PushEnv::joint_targets(const Eigen::Vector3d& p) const {
+  Eigen::Matrix3d down;
+  down << 1, 0, 0, 0, -1, 0, 0, 0, -1;
+  return arm_.ik(model(), data(), scratch_.get(), p, down, 30, 10.0);
+}
+
+Vec PushEnv::observation() const {
+  Vec o(20);
+  int k = 0;
+  arm_observation(o, k);
+  const Eigen::Vector3d b = block();
+  o[k++] = static_cast<float>(b.x());
+  o[k++] = static_cast<float>(b.y());
+  o[k++] = static_cast<float>(std::cos(b.z()));
+  o[k++] = static_cast<float>(std::sin(b.z()));
+  return o;
+}
+
+}  // namespace dd::mj
