@@ -14,7 +14,7 @@
 namespace dd::mj {
 
 struct PushConfig {
-  Eigen::Vector3d goal{0.45, 0.0, 0.0};  // x, y [m], yaw [rad]
+  Eigen::Vector3d goal{0.52, 0.0, 0.0};  // x, y [m], yaw [rad]
   double pos_tolerance = 0.02;           // [m]
   double yaw_tolerance = 10 * M_PI / 180;
   double start_yaw_spread = 0.6;         // start yaw = goal + pi +- spread/2

@@ -127,7 +127,14 @@ Vec PushExpert::act(const Env& base) {
     goal = target_ + Eigen::Vector3d(in.x(), in.y(), 0) * push_speed;
     goal.z() = kTipZ;
     step = push_speed;
-    if (++pushed_ >= stroke || env->at_goal()) {
+    // near the goal yaw, stop as soon as this push would overshoot the goal position or yaw
+    const Eigen::Vector3d goal_pose = env->config().goal;
+    const double turn = std::remainder(goal_pose.z() - b.z(), 2 * M_PI);
+    const bool fine = std::abs(turn) < 0.4;
+    const bool past = fine && pushed_ > 1 &&
+                      ((goal_pose.head<2>() - b.head<2>()).dot(in) < 0.004 || turn * stroke_turn_ < 0);
+    if (pushed_ == 0) stroke_turn_ = turn;
+    if (++pushed_ >= stroke || env->at_goal() || past) {
       phase_ = Phase::kChoose;
       // back off a little before the next choice, so the stick does not drag along the block
       goal = target_ - Eigen::Vector3d(in.x(), in.y(), 0) * 0.01;
