@@ -14,6 +14,8 @@
 #include "envs/mujoco/stack_expert.h"
 #include "envs/mujoco/plug.h"
 #include "envs/mujoco/plug_expert.h"
+#include "envs/mujoco/push.h"
+#include "envs/mujoco/push_expert.h"
 #include "envs/registry.h"
 
 namespace dd::mj {
@@ -209,6 +211,62 @@ TEST(Mujoco, PlugIsDeterministic) {
   EXPECT_EQ(state_hash(a), state_hash(b));
 }
 
+TEST(Mujoco, PushModelLoadsWithTheDeclaredSizes) {
+  PushEnv env;
+  EXPECT_EQ(env.obs_dim(), 20);
+  EXPECT_EQ(env.action_dim(), 7);
+  const Vec o = env.observation();
+  ASSERT_EQ(o.size(), 20);
+  EXPECT_TRUE(o.allFinite());
+  EXPECT_FALSE(env.at_goal());  // it starts about half a turn away
+  // joint deltas are clipped: a huge action moves each joint by at most max_joint_step
+  const Vec7 q0 = env.arm().q(env.data());
+  env.step(Vec::Constant(7, 10.f));
+  const Vec7 q1 = env.arm().q(env.data());
+  EXPECT_LT((q1 - q0).cwiseAbs().maxCoeff(), env.max_joint_step + 0.01);
+}
+
+TEST(Mujoco, PushExpertsTurnTheBlockTheirOwnWayHome) {
+  PushEnv env;
+  for (auto mode : {PushExpert::Mode::kClockwise, PushExpert::Mode::kCounterClockwise}) {
+    PushExpert expert(mode);
+    int ok = 0, steps = 0;
+    const int n = 5;
+    for (int s = 0; s < n; ++s) {
+      env.reset(400 + s);
+      expert.reset(400 + s);
+      // follow the unwrapped yaw: the sense of rotation must be the expert's
+      double yaw = env.block().z(), travelled = 0;
+      StepResult r;
+      while (!r.done) {
+        r = env.step(expert.act(env));
+        const double now = env.block().z();
+        travelled += std::remainder(now - yaw, 2 * M_PI);
+        yaw = now;
+      }
+      if (env.success()) {
+        ++ok;
+        steps += env.steps();
+        if (mode == PushExpert::Mode::kClockwise) EXPECT_LT(travelled, -2.0) << "seed " << 400 + s;
+        else EXPECT_GT(travelled, 2.0) << "seed " << 400 + s;
+      }
+    }
+    std::printf("push expert %s: %d/%d, mean %.1f steps\n", expert.name().c_str(), ok, n, ok ? double(steps) / ok : 0.0);
+    EXPECT_GE(ok, 4) << expert.name();
+  }
+}
+
+TEST(Mujoco, MixedPushExpertUsesBothSenses) {
+  PushExpert expert(PushExpert::Mode::kMixed);
+  int cw = 0;
+  for (int s = 0; s < 40; ++s) {
+    expert.reset(s);
+    cw += expert.episode_mode() == PushExpert::Mode::kClockwise;
+  }
+  EXPECT_GT(cw, 10);
+  EXPECT_LT(cw, 30);
+}
+
 TEST(Mujoco, PlannerGoesAroundAnObstacle) {
   const std::vector<Box3> wall = {{{0.45, -0.1, 0.0}, {0.5, 0.1, 0.4}}};
   const Eigen::Vector3d a(0.3, 0, 0.1), b(0.7, 0, 0.1);
@@ -220,11 +278,11 @@ TEST(Mujoco, PlannerGoesAroundAnObstacle) {
 }
 
 TEST(Mujoco, RegistryBuildsTheArmTasks) {
-  for (const std::string task : {"stack", "plug"}) {
+  for (const std::string task : {"stack", "push", "plug"}) {
     auto env = make_env(task);
-    auto expert = make_expert(task, "planner");
+    auto expert = make_expert(task, task == "push" ? "cw" : "planner");
     EXPECT_EQ(env->name(), task);
-    EXPECT_THROW(make_expert(task, "cw"), Error);
+    EXPECT_THROW(make_expert(task, "sideways"), Error);
   }
 }
 

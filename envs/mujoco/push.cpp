@@ -51,7 +51,7 @@ std::string push_xml(const PushConfig& c) {
     <light pos="0.4 0.8 1.4" dir="0 -0.5 -1" diffuse="0.3 0.3 0.3" castshadow="false"/>
     <geom name="floor" type="plane" size="3 3 0.1" pos="0 0 -0.75" material="floor"/>
     <geom name="table" type="box" size="0.45 0.6 0.375" pos="0.45 0 -0.375" material="table"/>
-    <camera name="top" pos="0.55 0 1.05" xyaxes="0 -1 0 1 0 0" fovy="45"/>
+    <camera name="top" pos="1.0 0 0.95" xyaxes="0 1 0 -0.89 0 0.45" fovy="40"/>
     <camera name="overview" pos="1.45 -0.75 0.85" xyaxes="0.46 0.89 0 -0.45 0.23 0.86" fovy="45"/>
     {arm}
     <body name="goal" pos="{gx} {gy} 0.0005" euler="0 0 {gyaw}">

@@ -124,9 +124,10 @@ Vec PushExpert::act(const Env& base) {
   }
   if (phase_ == Phase::kPush) {
     const Eigen::Vector2d in = -(R * normal_);
-    goal = target_ + Eigen::Vector3d(in.x(), in.y(), 0) * push_speed;
+    const double turn_now = std::abs(std::remainder(env->config().goal.z() - b.z(), 2 * M_PI));
+    step = turn_now > 0.4 ? push_speed * 1.4 : push_speed;  // long strokes while turning, careful ones at the end
+    goal = target_ + Eigen::Vector3d(in.x(), in.y(), 0) * step;
     goal.z() = kTipZ;
-    step = push_speed;
     // near the goal yaw, stop as soon as this push would overshoot the goal position or yaw
     const Eigen::Vector3d goal_pose = env->config().goal;
     const double turn = std::remainder(goal_pose.z() - b.z(), 2 * M_PI);

@@ -25,7 +25,7 @@ class PushExpert : public Expert {
   /// The sense of this episode (never kMixed after reset).
   Mode episode_mode() const { return current_; }
 
-  double speed = 0.03;        // stick travel per step when repositioning [m]
+  double speed = 0.035;       // stick travel per step when repositioning [m]
   double push_speed = 0.015;  // per step while pushing [m]
   int stroke = 12;            // steps per push stroke
 
