@@ -1,5 +1,6 @@
 #include "ui/console.h"
 
+#include <GL/gl.h>
 #include <GLFW/glfw3.h>  // key codes only (ImGui 1.86 indexes keys by GLFW code); no window calls here
 #include <imgui.h>
 #include <spdlog/spdlog.h>
@@ -18,8 +19,11 @@
 #include "core/event_log.h"
 #include "core/method.h"
 #include "core/session.h"
+#include "envs/mujoco/arm_env.h"
+#include "envs/mujoco/pick_place_expert.h"
 #include "envs/nav2d.h"
 #include "envs/registry.h"
+#include "ui/mujoco_view.h"
 #include "ui/scene2d.h"
 
 namespace dd::ui {
@@ -154,6 +158,16 @@ struct Console::State {
   std::unique_ptr<DaggerSession> session;
   std::unique_ptr<EventLog> log;
   std::unique_ptr<Scene2d> scene;
+  // the arm tasks: MuJoCo's view, shown through a texture
+  mj::ArmEnv* arm = nullptr;
+  std::unique_ptr<MujocoView> mjview;
+  unsigned mj_tex = 0;
+  int mj_tex_w = 0, mj_tex_h = 0;
+  FreeCamera free_cam;
+  int camera = -1;  // -1: the free camera, else the model's camera index
+  Eigen::Vector3d op_target{0, 0, 0};
+  bool op_valid = false;
+  double op_grip = 0, op_yaw = 0, lift = 0;
 
   // events from the session (either thread), handled on the frame thread
   std::mutex mu;
@@ -209,6 +223,47 @@ struct Console::State {
   }
 };
 
+namespace {
+
+// The operator drives an arm task: a TCP target that the arrow keys move in the camera's ground
+// plane, PageUp/PageDown raise and lower, Shift+drag places; G toggles the gripper.
+Vec arm_operator_action(Console::State& s) {
+  const mj::ArmEnv& env = *s.arm;
+  const Eigen::Vector3d tcp = env.arm().tcp_pos(env.data());
+  if (!s.op_valid) {
+    s.op_target = tcp;
+    s.op_yaw = mj::tool_yaw(env.arm().tcp_rot(env.data()));
+    s.op_grip = env.arm().opening(env.data()) < 0.06 ? 1.0 : 0.0;
+    s.op_valid = true;
+  }
+  if (!s.dragging) {
+    Eigen::Vector2d fwd(1, 0);
+    if (s.camera < 0) {
+      const double az = s.free_cam.azimuth * M_PI / 180;
+      fwd = Eigen::Vector2d(std::cos(az), std::sin(az));
+    }
+    const Eigen::Vector2d right(fwd.y(), -fwd.x());
+    const Eigen::Vector2d d = (fwd * s.jog.y() + right * s.jog.x()) * 0.01;
+    s.op_target += Eigen::Vector3d(d.x(), d.y(), 0.01 * s.lift);
+  } else {
+    s.op_target.head<2>() = s.drag_target;
+  }
+  s.op_target.z() = std::clamp(s.op_target.z(), 0.0, 0.5);
+  if ((s.op_target - tcp).norm() > 0.08) s.op_target = tcp + (s.op_target - tcp).normalized() * 0.08;  // stay reachable
+  const Eigen::Matrix3d R = mj::tool_down(s.op_yaw);
+  if (env.control() == mj::ArmControl::kEndEffectorPose) {
+    Vec a(10);
+    a.head<3>() = s.op_target.cast<float>();
+    a.segment<6>(3) = mj::rot6d(R).cast<float>();
+    a[9] = static_cast<float>(s.op_grip);
+    return a;
+  }
+  const mj::Vec7 dq = (env.ik_targets(s.op_target, R) - env.arm().q(env.data())).cwiseMax(-env.max_joint_step).cwiseMin(env.max_joint_step);
+  return dq.cast<float>();
+}
+
+}  // namespace
+
 Console::Console(const ConsoleOptions& options) : s_(std::make_unique<State>()) {
   State& s = *s_;
   s.o = options;
@@ -221,10 +276,12 @@ Console::Console(const ConsoleOptions& options) : s_(std::make_unique<State>()) 
     throw Error(dataset + ": already exists; a console session never mixes its data into an earlier one's (choose another --out)");
   s.env = make_env(c.task);
   s.nav = dynamic_cast<Nav2dEnv*>(s.env.get());
+  s.arm = dynamic_cast<mj::ArmEnv*>(s.env.get());
   s.scripted = make_expert(c.task, s.o.expert_mode);
   s.expert = std::make_unique<ConsoleExpert>(
       *s.scripted, [&s] { return s.operator_drives() && !s.o.scripted_operator; },
       [&s](const Env& env) -> Vec {
+        if (s.arm) return arm_operator_action(s);
         // the operator commands a target position: the dragged point, or a step along the jog direction
         const Vec obs = env.observation();
         const Eigen::Vector2d p(obs[0], obs[1]);
@@ -245,6 +302,10 @@ Console::Console(const ConsoleOptions& options) : s_(std::make_unique<State>()) 
   std::string error;
   s.scene = Scene2d::create(640, 640, &error);
   if (!s.scene) throw Error("console: " + error);
+  if (s.arm) {
+    s.mjview = std::make_unique<MujocoView>(s.arm->model());
+    glGenTextures(1, &s.mj_tex);
+  }
   spdlog::info("console: {} on {}, data set {}, log {}", s.o.method, c.task, dataset, s.log->path());
 }
 
@@ -275,7 +336,11 @@ std::vector<std::pair<std::string, std::string>> console_keys() {
   return {{"T", "take over from the robot, or answer its query yourself"},
           {"E", "let the scripted expert answer the query"},
           {"H", "hand control back to the robot"},
-          {"Arrow keys", "drive (2-D: the target moves with the arrows)"},
+          {"Arrow keys", "drive: the target moves with the arrows (arm tasks: in the camera's ground plane)"},
+          {"PageUp / PageDown", "arm tasks: raise / lower the target"},
+          {"G", "arm tasks: close / open the gripper"},
+          {"C", "arm tasks: next camera (free, then the task's cameras)"},
+          {"Mouse on an arm scene", "left drag orbits, right drag pans, wheel zooms; Shift + left drag moves the target"},
           {"Left mouse drag", "drag the target in the scene (takes over)"},
           {"Gamepad", "left stick drives; A take over, B hand back, X scripted expert, Start pause"},
           {"Space", "pause / resume"},
@@ -354,6 +419,7 @@ void handle_event(Console::State& s, const SessionEvent& e) {
     case EventKind::kTakeover:
       if (e.control == Control::kOperator) {
         ++s.takeovers;
+        s.op_valid = false;
         s.answering = Console::State::Answer::kOperator;
         s.takeover_steps = 0;
       } else if (e.control == Control::kExpertTimeout) {
@@ -472,6 +538,7 @@ void save_policy(Console::State& s) {
 
 void answer_as_operator(Console::State& s) {
   s.answering = Console::State::Answer::kOperator;
+  s.op_valid = false;
   s.awaiting = false;
   s.takeover_steps = 0;
   s.operator_countdown = -1;
@@ -510,6 +577,13 @@ void handle_key(Console::State& s, int key) {
       }
       break;
     case GLFW_KEY_S: if (idle) save_policy(s); break;
+    case GLFW_KEY_G: s.op_grip = s.op_grip > 0.5 ? 0.0 : 1.0; break;
+    case GLFW_KEY_C:
+      if (s.arm) {
+        const int n = s.arm->model()->ncam;
+        s.camera = s.camera + 1 >= n ? -1 : s.camera + 1;
+      }
+      break;
     case GLFW_KEY_F:
       s.show_field = !s.show_field;
       if (s.show_field && !s.field_valid) s.field_wanted = true;
@@ -628,6 +702,64 @@ void draw_nav2d(Console::State& s, ImVec2 size) {
   sc.render();
 }
 
+// The arm scene through MuJoCo's renderer: the free camera (orbit, pan, zoom with the mouse) or one
+// of the task's cameras; the robot's planned TCP positions and the operator's target as markers.
+void draw_mujoco(Console::State& s, ImVec2 origin, float side) {
+  const mjData* d = s.arm->data();
+  std::vector<Marker> markers;
+  const Mat& chunk = s.session->chunk();
+  if (chunk.rows() > 0 && chunk.cols() >= 3 && s.arm->control() == mj::ArmControl::kEndEffectorPose &&
+      s.session->control() == Control::kRobot)
+    for (Eigen::Index r = 0; r < chunk.rows(); ++r) {
+      const float a = r < s.session->chunk_pos() ? 0.25f : 0.9f;
+      markers.push_back({{chunk(r, 0), chunk(r, 1), chunk(r, 2)}, 0.006, {0.45f, 0.8f, 1.f, a}});
+    }
+  if (s.operator_drives() && !s.o.scripted_operator && s.op_valid)
+    markers.push_back({{s.op_target.x(), s.op_target.y(), s.op_target.z()}, 0.012, {0.7f, 0.42f, 0.91f, 0.9f}});
+  const int px = std::max(64, static_cast<int>(side));
+  const Image img = s.camera < 0 ? s.mjview->free(d, s.free_cam, px, px, markers)
+                                 : s.mjview->camera_view(d, mj_id2name(s.arm->model(), mjOBJ_CAMERA, s.camera), px, px, markers);
+  glBindTexture(GL_TEXTURE_2D, s.mj_tex);
+  glPixelStorei(GL_UNPACK_ALIGNMENT, 1);
+  glTexImage2D(GL_TEXTURE_2D, 0, GL_RGBA8, img.width, img.height, 0, GL_RGBA, GL_UNSIGNED_BYTE, img.rgba.data());
+  glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MIN_FILTER, GL_LINEAR);
+  glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAG_FILTER, GL_LINEAR);
+  ImGui::SetCursorScreenPos(origin);
+  ImGui::Image(reinterpret_cast<ImTextureID>(static_cast<intptr_t>(s.mj_tex)), ImVec2(side, side));
+  const bool hovered = ImGui::IsItemHovered();
+  ImGuiIO& io = ImGui::GetIO();
+  if (hovered && s.camera < 0) {
+    if (io.KeyShift && ImGui::IsMouseDown(ImGuiMouseButton_Left) && !s.busy) {
+      // Shift + drag: the operator's target follows the point under the mouse
+      const ImVec2 m = ImGui::GetMousePos();
+      double p[3];
+      if (s.mjview->select(d, (m.x - origin.x) / side, 1.0 - (m.y - origin.y) / side, 1.0, p)) {
+        s.drag_target = Eigen::Vector2d(p[0], p[1]);
+        if (!s.dragging) {
+          s.dragging = true;
+          if (!s.operator_drives()) take_over(s);
+        }
+      }
+    } else if (ImGui::IsMouseDragging(ImGuiMouseButton_Left)) {
+      s.free_cam.azimuth -= io.MouseDelta.x * 0.3;
+      s.free_cam.elevation = std::clamp(s.free_cam.elevation - io.MouseDelta.y * 0.3, -89.0, -2.0);
+    } else if (ImGui::IsMouseDragging(ImGuiMouseButton_Right)) {
+      const double az = s.free_cam.azimuth * M_PI / 180, k = s.free_cam.distance * 0.0015;
+      s.free_cam.lookat[0] += (-std::sin(az) * io.MouseDelta.x - std::cos(az) * io.MouseDelta.y) * k;
+      s.free_cam.lookat[1] += (std::cos(az) * io.MouseDelta.x - std::sin(az) * io.MouseDelta.y) * k;
+    }
+    if (io.MouseWheel != 0) s.free_cam.distance = std::clamp(s.free_cam.distance * (1.0 - 0.1 * io.MouseWheel), 0.3, 5.0);
+  }
+  if (!ImGui::IsMouseDown(ImGuiMouseButton_Left)) s.dragging = false;
+  // which camera, top-left
+  const char* cam = s.camera < 0 ? "free camera (C: next)" : mj_id2name(s.arm->model(), mjOBJ_CAMERA, s.camera);
+  ImDrawList* dl = ImGui::GetWindowDrawList();
+  const ImVec2 ts = ImGui::CalcTextSize(cam);
+  dl->AddRectFilled(ImVec2(origin.x + 8, origin.y + side - 30), ImVec2(origin.x + 20 + ts.x, origin.y + side - 8),
+                    IM_COL32(10, 12, 16, 170), 4.f);
+  dl->AddText(ImVec2(origin.x + 14, origin.y + side - 27), IM_COL32(220, 224, 232, 230), cam);
+}
+
 void scene_view(Console::State& s, ImVec2 pos, ImVec2 size) {
   ImGui::SetNextWindowPos(pos);
   ImGui::SetNextWindowSize(size);
@@ -654,8 +786,10 @@ void scene_view(Console::State& s, ImVec2 pos, ImVec2 size) {
     } else if (!ImGui::IsMouseDown(ImGuiMouseButton_Left)) {
       s.dragging = false;
     }
+  } else if (s.arm) {
+    draw_mujoco(s, origin, side);
   } else {
-    dl->AddText(origin, kAxisText, "no renderer for this task yet");
+    dl->AddText(origin, kAxisText, "no renderer for this task");
   }
   // legend and key hints below the scene
   {
@@ -991,7 +1125,8 @@ void Console::frame(const FrameInput& in) {
     else s.quitting = true;
   }
   s.jog = in.jog;
-  if (s.jog.squaredNorm() > 0 && !s.busy && !s.operator_drives() && !s.awaiting && s.session->in_episode() &&
+  s.lift = in.lift;
+  if ((s.jog.squaredNorm() > 0 || s.lift != 0) && !s.busy && !s.operator_drives() && !s.awaiting && s.session->in_episode() &&
       s.session->control() == Control::kRobot && !s.o.scripted_operator)
     take_over(s);  // driving is taking over
   advance(s, in.dt);

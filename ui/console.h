@@ -34,6 +34,7 @@ struct FrameInput {
   double dt = 1.0 / 60;              // seconds
   std::vector<int> pressed;          // keys pressed (GLFW key codes), in order
   Eigen::Vector2d jog{0, 0};         // drive direction from held keys or a stick, each in [-1, 1]
+  double lift = 0;                   // arm tasks: raise (+1) or lower (-1) the target
   bool close_requested = false;      // the window's close button
 };
 

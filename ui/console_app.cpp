@@ -165,6 +165,7 @@ int run_headless(ConsoleOptions options, const ConsoleRunOptions& run) {
       }
       io.DeltaTime = static_cast<float>(dt);
       io.MousePos = ImVec2(-FLT_MAX, -FLT_MAX);
+      gl->make_current();  // (MuJoCo's renderer binds framebuffers of its own)
       ImGui_ImplOpenGL3_NewFrame();
       ImGui::NewFrame();
       console.frame(in);
@@ -243,6 +244,7 @@ int run_window(ConsoleOptions options, const ConsoleRunOptions& run) {
       in.pressed.swap(keys);
       auto down = [&](int key) { return glfwGetKey(window, key) == GLFW_PRESS ? 1 : 0; };
       in.jog = Eigen::Vector2d(down(GLFW_KEY_RIGHT) - down(GLFW_KEY_LEFT), down(GLFW_KEY_UP) - down(GLFW_KEY_DOWN));
+      in.lift = down(GLFW_KEY_PAGE_UP) - down(GLFW_KEY_PAGE_DOWN);
       GLFWgamepadstate pad;
       if (glfwJoystickIsGamepad(GLFW_JOYSTICK_1) && glfwGetGamepadState(GLFW_JOYSTICK_1, &pad)) {
         const float x = pad.axes[GLFW_GAMEPAD_AXIS_LEFT_X], y = -pad.axes[GLFW_GAMEPAD_AXIS_LEFT_Y];

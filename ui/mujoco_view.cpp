@@ -1,5 +1,7 @@
 #include "ui/mujoco_view.h"
 
+#include <GL/gl.h>
+#include <GL/glext.h>
 #include <mujoco/mujoco.h>
 
 #include <algorithm>
@@ -22,7 +24,12 @@ MujocoView::MujocoView(const mjModel* model) : impl_(std::make_unique<Impl>()) {
   mjr_defaultContext(&impl_->context);
   mjv_defaultOption(&impl_->option);
   mjv_makeScene(model, &impl_->scene, 2000);
+  GLint previous_draw = 0, previous_read = 0;
+  glGetIntegerv(GL_DRAW_FRAMEBUFFER_BINDING, &previous_draw);
+  glGetIntegerv(GL_READ_FRAMEBUFFER_BINDING, &previous_read);
   mjr_makeContext(model, &impl_->context, mjFONTSCALE_100);
+  glBindFramebuffer(GL_DRAW_FRAMEBUFFER, static_cast<GLuint>(previous_draw));
+  glBindFramebuffer(GL_READ_FRAMEBUFFER, static_cast<GLuint>(previous_read));
   if (!impl_->context.offFBO) throw Error("MuJoCo could not make its offscreen framebuffer (needs a compatibility-profile GL context)");
 }
 
@@ -43,11 +50,27 @@ Image MujocoView::camera(const mjData* data, const std::string& name, int width,
   return render(data, id, nullptr, width, height, cheap);
 }
 
-Image MujocoView::free(const mjData* data, const FreeCamera& cam, int width, int height) {
-  return render(data, -1, &cam, width, height, false);
+Image MujocoView::free(const mjData* data, const FreeCamera& cam, int width, int height, const std::vector<Marker>& markers) {
+  return render(data, -1, &cam, width, height, false, markers);
 }
 
-Image MujocoView::render(const mjData* data, int camera_id, const FreeCamera* fc, int width, int height, bool cheap) {
+Image MujocoView::camera_view(const mjData* data, const std::string& name, int width, int height, const std::vector<Marker>& markers) {
+  const int id = mj_name2id(impl_->model, mjOBJ_CAMERA, name.c_str());
+  if (id < 0) throw Error("MuJoCo scene: no camera named '" + name + "'");
+  return render(data, id, nullptr, width, height, false, markers);
+}
+
+bool MujocoView::select(const mjData* data, double relx, double rely, double aspect, double point[3]) {
+  int geom = -1, skin = -1;
+  mjtNum p[3];
+  const int body = mjv_select(impl_->model, data, &impl_->option, aspect, relx, rely, &impl_->scene, p, &geom, &skin);
+  if (body < 0 && geom < 0) return false;
+  for (int i = 0; i < 3; ++i) point[i] = p[i];
+  return true;
+}
+
+Image MujocoView::render(const mjData* data, int camera_id, const FreeCamera* fc, int width, int height, bool cheap,
+                         const std::vector<Marker>& markers) {
   Impl& s = *impl_;
   width = std::min(width, s.context.offWidth);
   height = std::min(height, s.context.offHeight);
@@ -67,12 +90,26 @@ Image MujocoView::render(const mjData* data, int camera_id, const FreeCamera* fc
   s.scene.flags[mjRND_REFLECTION] = cheap ? 0 : 1;
   s.scene.flags[mjRND_SKYBOX] = 1;
   mjv_updateScene(s.model, const_cast<mjData*>(data), &s.option, nullptr, &cam, mjCAT_ALL, &s.scene);
+  for (const Marker& m : markers) {
+    if (s.scene.ngeom >= s.scene.maxgeom) break;
+    mjvGeom* g = s.scene.geoms + s.scene.ngeom++;
+    const mjtNum size[3] = {m.radius, m.radius, m.radius};
+    mjv_initGeom(g, mjGEOM_SPHERE, size, m.pos, nullptr, m.rgba);
+    g->category = mjCAT_DECOR;
+  }
+  // MuJoCo binds its own framebuffers: put the caller's back afterwards (a window's, or HeadlessGL's)
+  GLint previous_draw = 0, previous_read = 0, viewport_before[4];
+  glGetIntegerv(GL_DRAW_FRAMEBUFFER_BINDING, &previous_draw);
+  glGetIntegerv(GL_READ_FRAMEBUFFER_BINDING, &previous_read);
+  glGetIntegerv(GL_VIEWPORT, viewport_before);
   mjr_setBuffer(mjFB_OFFSCREEN, &s.context);
   const mjrRect viewport{0, 0, width, height};
   mjr_render(viewport, &s.scene, &s.context);
   std::vector<unsigned char> rgb(static_cast<size_t>(width) * height * 3);
   mjr_readPixels(rgb.data(), nullptr, viewport, &s.context);
-  mjr_setBuffer(mjFB_WINDOW, &s.context);
+  glBindFramebuffer(GL_DRAW_FRAMEBUFFER, static_cast<GLuint>(previous_draw));
+  glBindFramebuffer(GL_READ_FRAMEBUFFER, static_cast<GLuint>(previous_read));
+  glViewport(viewport_before[0], viewport_before[1], viewport_before[2], viewport_before[3]);
   Image img{width, height, std::vector<uint8_t>(static_cast<size_t>(width) * height * 4)};
   for (int y = 0; y < height; ++y)  // MuJoCo's rows are bottom-up; the sky's alpha is 0, so write 255
     for (int x = 0; x < width; ++x) {

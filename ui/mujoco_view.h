@@ -21,6 +21,13 @@ struct FreeCamera {
   double distance = 1.9, azimuth = 140, elevation = -26;  // [m], [deg], [deg]
 };
 
+/// A sphere drawn into the scene (planned positions, the operator's target).
+struct Marker {
+  double pos[3];
+  double radius;
+  float rgba[4];
+};
+
 class MujocoView {
  public:
   /// Makes MuJoCo's GPU context for `model` on the calling thread's current GL context (a window's,
@@ -33,13 +40,19 @@ class MujocoView {
   /// The camera's image, width x height RGBA (alpha 255); `cheap` turns off shadows, reflections
   /// and skybox detail. Throws dd::Error naming the camera when the model has none of that name.
   Image camera(const mjData_* data, const std::string& name, int width, int height, bool cheap = true);
-  /// The scene from a free camera (the console's view).
-  Image free(const mjData_* data, const FreeCamera& cam, int width, int height);
+  /// The scene from a free camera (the console's view), with markers.
+  Image free(const mjData_* data, const FreeCamera& cam, int width, int height, const std::vector<Marker>& markers = {});
+  /// A named camera with markers (pretty settings).
+  Image camera_view(const mjData_* data, const std::string& name, int width, int height, const std::vector<Marker>& markers);
+  /// The world point under (relx, rely) in [0, 1] (y up) of the last free-camera image; false when
+  /// nothing is there.
+  bool select(const mjData_* data, double relx, double rely, double aspect, double point[3]);
   /// Names of the model's cameras.
   std::vector<std::string> camera_names() const;
 
  private:
-  Image render(const mjData_* data, int camera_id, const FreeCamera* cam, int width, int height, bool cheap);
+  Image render(const mjData_* data, int camera_id, const FreeCamera* cam, int width, int height, bool cheap,
+               const std::vector<Marker>& markers = {});
   struct Impl;
   std::unique_ptr<Impl> impl_;
 };

@@ -38,6 +38,10 @@ void ArmEnv::arm_observation(Vec& out, int& k) const {
   if (arm_.tool() == Tool::kGripper) out[k++] = static_cast<float>(arm_.opening(data_.get()));
 }
 
+Vec7 ArmEnv::ik_targets(const Eigen::Vector3d& p, const Eigen::Matrix3d& R) const {
+  return arm_.ik(model_.get(), data_.get(), scratch_.get(), p, R, 30, 10.0);
+}
+
 StepResult ArmEnv::step(const Vec& action) {
   StepResult r;
   if (failed_ || steps_ >= limit_) {

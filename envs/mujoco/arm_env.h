@@ -43,6 +43,10 @@ class ArmEnv : public Env {
   /// the gripper, the opening (1).
   void arm_observation(Vec& out, int& k) const;
 
+  /// Joint positions that bring the TCP to (p, R) from the current posture (for experts and the
+  /// operator; does not change the state).
+  Vec7 ik_targets(const Eigen::Vector3d& p, const Eigen::Matrix3d& R) const;
+
   double max_joint_step = 0.05;  // kJointDelta: rad per control step
 
  protected:

@@ -114,7 +114,7 @@ bool PushEnv::at_goal() const {
 Vec7 PushEnv::joint_targets(const Eigen::Vector3d& p) const {
   Eigen::Matrix3d down;
   down << 1, 0, 0, 0, -1, 0, 0, 0, -1;
-  return arm_.ik(model(), data(), scratch_.get(), p, down, 30, 10.0);
+  return ik_targets(p, down);
 }
 
 Vec PushEnv::observation() const {
