@@ -66,7 +66,8 @@ StepResult ArmEnv::step(const Vec& action) {
   Vec7 target;
   double grip = 0;
   if (control_ == ArmControl::kEndEffectorPose) {
-    const Eigen::Vector3d p = action.head<3>().cast<double>();
+    // a safety box, like a real arm's: the TCP stays over the table and within reach
+    const Eigen::Vector3d p = action.head<3>().cast<double>().cwiseMax(Eigen::Vector3d(0.15, -0.5, 0.005)).cwiseMin(Eigen::Vector3d(0.85, 0.5, 0.6));
     const Eigen::Matrix3d R = from_rot6d(action.segment<6>(3).cast<double>());
     grip = action[9];
     target = arm_.ik(m, d, scratch_.get(), p, R);

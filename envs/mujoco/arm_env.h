@@ -14,7 +14,8 @@ namespace dd::mj {
 
 /// How actions drive the arm.
 enum class ArmControl {
-  kEndEffectorPose,  // absolute TCP pose: position (3), 6-D rotation (6), gripper 0..1 (1)
+  kEndEffectorPose,  // absolute TCP pose: position (3, kept in x 0.15..0.85, y -0.5..0.5, z 0.005..0.6 m),
+                     // 6-D rotation (6), gripper 0..1 (1)
   kJointDelta        // relative joint positions (7) [rad per step], clipped to +-max_joint_step
 };
 
