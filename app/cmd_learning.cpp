@@ -13,11 +13,11 @@ Command add_dagger(CLI::App& app) {
     uint64_t seed = 0;
   };
   auto o = std::make_shared<Opts>();
-  cmd->add_option("--task", o->task, "task: nav2d (stack, push, plug: with the MuJoCo tasks)")->capture_default_str();
+  cmd->add_option("--task", o->task, "task: nav2d, nav2d_random, stack, push, plug")->capture_default_str();
   cmd->add_option("--method", o->method, "query rule")->capture_default_str()->check(CLI::IsMember({"diff", "ensemble", "thrifty", "bc"}));
   cmd->add_option("--out", o->out, "output folder: dataset.hdf5, checkpoints/, queries.jsonl, config.json")->required();
   cmd->add_option("--config", o->config, "YAML config file overriding the task's preset");
-  cmd->add_option("--expert", o->expert, "expert mode (nav2d: cw, ccw, mixed)")->capture_default_str();
+  cmd->add_option("--expert", o->expert, "expert mode (nav2d, push: cw, ccw, mixed)")->capture_default_str();
   cmd->add_option("--seed", o->seed, "random seed")->capture_default_str();
   return [o] {
     ExperimentConfig c = resolve_config(o->task, o->config);

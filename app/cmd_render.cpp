@@ -21,7 +21,7 @@ Command add_render(CLI::App& app) {
     int size = 96, steps = 0;
   };
   auto o = std::make_shared<Opts>();
-  cmd->add_option("--task", o->task, "task: stack")->capture_default_str();
+  cmd->add_option("--task", o->task, "task: stack, push, plug")->capture_default_str();
   cmd->add_option("--out", o->out, "output folder")->required();
   cmd->add_option("--seed", o->seed, "episode seed")->capture_default_str();
   cmd->add_option("--size", o->size, "camera image size [px]")->capture_default_str();
