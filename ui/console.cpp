@@ -124,6 +124,7 @@ struct Decision {
   float score, threshold;
   bool violation;
   int run;
+  float risk_q;  // thrifty: the critic's min Q (-1: not computed)
 };
 
 struct Timeline {
@@ -401,7 +402,7 @@ void handle_event(Console::State& s, const SessionEvent& e) {
       s.dragging = false;
       break;
     case EventKind::kDecision:
-      s.decisions.push_back({s.decision_count++, e.episode, e.score, e.threshold, e.violation, e.run});
+      s.decisions.push_back({s.decision_count++, e.episode, e.score, e.threshold, e.violation, e.run, e.risk_q});
       while (s.decisions.size() > 400) s.decisions.pop_front();
       s.last_decision_ms = e.inference_s * 1e3;
       break;
@@ -820,8 +821,14 @@ void scene_view(Console::State& s, ImVec2 pos, ImVec2 size) {
     if (g_big) ImGui::PopFont();
     char line[160];
     const Decision* d = s.decisions.empty() ? nullptr : &s.decisions.back();
-    std::snprintf(line, sizeof line, "loss %.3g above the threshold %.3g for %d decisions in a row",
-                  d ? d->score : 0.f, d ? d->threshold : 0.f, s.o.config.dagger.patience);
+    const float score = d ? d->score : 0.f, threshold = d ? d->threshold : 0.f;
+    const int K = s.o.config.dagger.patience;
+    if (s.o.method == "diff")
+      std::snprintf(line, sizeof line, "loss %.3g above the threshold %.3g for %d decisions in a row", score, threshold, K);
+    else if (score > threshold)
+      std::snprintf(line, sizeof line, "novelty: ensemble variance %.3g above %.3g for %d decisions in a row", score, threshold, K);
+    else
+      std::snprintf(line, sizeof line, "risk: the critic's success estimate %.2f is below its bound", d ? d->risk_q : 0.f);
     ImVec2 ls = ImGui::CalcTextSize(line);
     dl->AddText(ImVec2(a.x + (w - ls.x) * 0.5f, a.y + 44), IM_COL32(255, 235, 220, 255), line);
     const char* keys = s.o.scripted_operator ? "the scripted operator takes over shortly"
