@@ -163,7 +163,7 @@ struct Console::State {
   mj::ArmEnv* arm = nullptr;
   std::unique_ptr<MujocoView> mjview;
   unsigned mj_tex = 0;
-  int mj_tex_w = 0, mj_tex_h = 0;
+  std::vector<double> mj_key;  // what the texture shows (re-rendered when it changes)
   FreeCamera free_cam;
   int camera = -1;  // -1: the free camera, else the model's camera index
   Eigen::Vector3d op_target{0, 0, 0};
@@ -718,13 +718,21 @@ void draw_mujoco(Console::State& s, ImVec2 origin, float side) {
   if (s.operator_drives() && !s.o.scripted_operator && s.op_valid)
     markers.push_back({{s.op_target.x(), s.op_target.y(), s.op_target.z()}, 0.012, {0.7f, 0.42f, 0.91f, 0.9f}});
   const int px = std::max(64, static_cast<int>(side));
-  const Image img = s.camera < 0 ? s.mjview->free(d, s.free_cam, px, px, markers)
-                                 : s.mjview->camera_view(d, mj_id2name(s.arm->model(), mjOBJ_CAMERA, s.camera), px, px, markers);
-  glBindTexture(GL_TEXTURE_2D, s.mj_tex);
-  glPixelStorei(GL_UNPACK_ALIGNMENT, 1);
-  glTexImage2D(GL_TEXTURE_2D, 0, GL_RGBA8, img.width, img.height, 0, GL_RGBA, GL_UNSIGNED_BYTE, img.rgba.data());
-  glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MIN_FILTER, GL_LINEAR);
-  glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAG_FILTER, GL_LINEAR);
+  // MuJoCo's renderer is the costly part of a frame on a software GL: render only when the picture
+  // changes (the simulation stepped, the camera or a marker moved), not while a policy update runs
+  std::vector<double> key = {d->time, s.free_cam.lookat[0], s.free_cam.lookat[1], s.free_cam.lookat[2], s.free_cam.distance,
+                             s.free_cam.azimuth, s.free_cam.elevation, double(s.camera), double(px), double(markers.size())};
+  for (const Marker& m : markers) key.insert(key.end(), {m.pos[0], m.pos[1], m.pos[2], double(m.rgba[3])});
+  if (key != s.mj_key) {
+    s.mj_key = key;
+    const Image img = s.camera < 0 ? s.mjview->free(d, s.free_cam, px, px, markers)
+                                   : s.mjview->camera_view(d, mj_id2name(s.arm->model(), mjOBJ_CAMERA, s.camera), px, px, markers);
+    glBindTexture(GL_TEXTURE_2D, s.mj_tex);
+    glPixelStorei(GL_UNPACK_ALIGNMENT, 1);
+    glTexImage2D(GL_TEXTURE_2D, 0, GL_RGBA8, img.width, img.height, 0, GL_RGBA, GL_UNSIGNED_BYTE, img.rgba.data());
+    glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MIN_FILTER, GL_LINEAR);
+    glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAG_FILTER, GL_LINEAR);
+  }
   ImGui::SetCursorScreenPos(origin);
   ImGui::Image(reinterpret_cast<ImTextureID>(static_cast<intptr_t>(s.mj_tex)), ImVec2(side, side));
   const bool hovered = ImGui::IsItemHovered();
