@@ -213,8 +213,8 @@ struct Console::State {
   int screenshot_count = 0;
 
   // frame times
-  double frame_ms = 0, busy_frame_sum = 0, busy_frame_max = 0;
-  int busy_frames = 0;
+  double frame_ms = 0, busy_frame_sum = 0, busy_frame_max = 0, frame_sum = 0;
+  int busy_frames = 0, frames = 0;
 
   std::string status;
 
@@ -379,7 +379,9 @@ void Console::shutdown() {
   }
   s.log->note("console_end", std::to_string(s.session->expert_demos()) + " expert demos, " +
                                  std::to_string(s.session->updates()) + " updates");
-  if (s.busy_frames > 0)
+  if (s.frames > 1 && !s.o.fixed_step)
+    spdlog::info("console: frame time over the session: mean {:.1f} ms over {} frames", s.frame_sum / (s.frames - 1), s.frames - 1);
+  if (s.busy_frames > 0 && !s.o.fixed_step)
     spdlog::info("console: frame time while the worker trained: mean {:.1f} ms, max {:.1f} ms over {} frames",
                  s.busy_frame_sum / s.busy_frames, s.busy_frame_max, s.busy_frames);
   spdlog::info("console: data set {} ({} episodes), log {}", s.writer->path(), s.writer->episodes(), s.log->path());
@@ -1128,6 +1130,7 @@ void close_dialog(Console::State& s) {
 void Console::frame(const FrameInput& in) {
   State& s = *s_;
   s.frame_ms = 0.9 * s.frame_ms + 0.1 * in.dt * 1e3;
+  if (s.frames++ > 0) s.frame_sum += in.dt * 1e3;
   if (s.busy && s.busy_label == "policy update") {
     s.busy_frame_sum += in.dt * 1e3;
     s.busy_frame_max = std::max(s.busy_frame_max, in.dt * 1e3);
