@@ -67,6 +67,23 @@ std::string scene_common_xml(int w, int h) {
                      w, h);
 }
 
+std::string room_xml() {
+  return R"(    <light pos="0.4 -0.6 1.6" dir="0 0.35 -1" diffuse="0.7 0.7 0.7" castshadow="true"/>
+    <light pos="0.4 0.8 1.4" dir="0 -0.5 -1" diffuse="0.3 0.3 0.3" castshadow="false"/>
+    <geom name="floor" type="plane" size="3 3 0.1" pos="0 0 -0.75" material="floor"/>
+    <geom name="table" type="box" size="0.45 0.6 0.375" pos="0.45 0 -0.375" material="table"/>)";
+}
+
+std::string side_cameras_xml() {
+  return R"(    <camera name="left" pos="0.5 -0.95 0.55" xyaxes="1 0 0 0 0.447 0.894" fovy="55"/>
+    <camera name="right" pos="0.5 0.95 0.55" xyaxes="-1 0 0 0 -0.447 0.894" fovy="55"/>
+)";
+}
+
+std::string overview_camera_xml() {
+  return R"(    <camera name="overview" pos="1.45 -0.75 0.85" xyaxes="0.46 0.89 0 -0.45 0.23 0.86" fovy="45"/>)";
+}
+
 std::string panda_body_xml(Tool tool, const Eigen::Vector3d& base) {
   std::string x = fmt::format(R"(<body name="link0" pos="{} {} {}">
   <geom class="visual" type="cylinder" size="0.07 0.03" pos="0 0 0.03" material="dark"/>

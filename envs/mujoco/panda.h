@@ -22,6 +22,12 @@ std::string panda_actuator_xml(Tool tool);
 /// Defaults, textures and materials shared by the scenes (a <default> and an <asset> block).
 std::string scene_common_xml(int offscreen_width, int offscreen_height);
 
+/// The room every arm scene shares: two lights, the floor and the table (top at z = 0).
+std::string room_xml();
+/// The left and right cameras over the table (stacking, plugging), and the overview camera.
+std::string side_cameras_xml();
+std::string overview_camera_xml();
+
 /// Joint limits [rad] from the Panda's datasheet.
 Vec7 panda_lower();
 Vec7 panda_upper();

@@ -31,13 +31,8 @@ std::string plug_xml(const PlugConfig& c) {
                         x, y, kDockWall / 2, hx, hy, kDockWall / 2);
   return fmt::format(R"(<mujoco model="plug">{common}
   <worldbody>
-    <light pos="0.4 -0.6 1.6" dir="0 0.35 -1" diffuse="0.7 0.7 0.7" castshadow="true"/>
-    <light pos="0.4 0.8 1.4" dir="0 -0.5 -1" diffuse="0.3 0.3 0.3" castshadow="false"/>
-    <geom name="floor" type="plane" size="3 3 0.1" pos="0 0 -0.75" material="floor"/>
-    <geom name="table" type="box" size="0.45 0.6 0.375" pos="0.45 0 -0.375" material="table"/>
-    <camera name="left" pos="0.5 -0.95 0.55" xyaxes="1 0 0 0 0.447 0.894" fovy="55"/>
-    <camera name="right" pos="0.5 0.95 0.55" xyaxes="-1 0 0 0 -0.447 0.894" fovy="55"/>
-    <camera name="overview" pos="1.45 -0.75 0.85" xyaxes="0.46 0.89 0 -0.45 0.23 0.86" fovy="45"/>
+{room}
+{cameras}
     {arm}
     <body name="receptacle" mocap="true" pos="0.5 0.15 0">
 {receptacle}      <site name="socket" pos="0 0 0" size="0.004" rgba="1 1 0 0.5" group="2"/>
@@ -54,7 +49,8 @@ std::string plug_xml(const PlugConfig& c) {
 {act}  </actuator>
 </mujoco>
 )",
-                     fmt::arg("common", scene_common_xml(std::max(640, c.camera_size), std::max(640, c.camera_size))),
+                     fmt::arg("room", room_xml()), fmt::arg("cameras", side_cameras_xml() + overview_camera_xml()),
+                     fmt::arg("overview", overview_camera_xml()), fmt::arg("common", scene_common_xml(std::max(640, c.camera_size), std::max(640, c.camera_size))),
                      fmt::arg("arm", panda_body_xml(Tool::kGripper, {0, 0, 0})), fmt::arg("receptacle", receptacle),
                      fmt::arg("dock", dock), fmt::arg("hh", c.handle_half), fmt::arg("hz", kHandleHalfZ),
                      fmt::arg("pz2", kHandleHalfZ + kProngHalfZ), fmt::arg("ph", c.prong_half), fmt::arg("pz", kProngHalfZ),

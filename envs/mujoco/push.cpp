@@ -47,12 +47,9 @@ double t_distance(const Eigen::Vector2d& p) { return std::min(rect_distance(kBar
 std::string push_xml(const PushConfig& c) {
   return fmt::format(R"(<mujoco model="push">{common}
   <worldbody>
-    <light pos="0.4 -0.6 1.6" dir="0 0.35 -1" diffuse="0.7 0.7 0.7" castshadow="true"/>
-    <light pos="0.4 0.8 1.4" dir="0 -0.5 -1" diffuse="0.3 0.3 0.3" castshadow="false"/>
-    <geom name="floor" type="plane" size="3 3 0.1" pos="0 0 -0.75" material="floor"/>
-    <geom name="table" type="box" size="0.45 0.6 0.375" pos="0.45 0 -0.375" material="table"/>
+{room}
     <camera name="top" pos="1.0 0 0.95" xyaxes="0 1 0 -0.89 0 0.45" fovy="40"/>
-    <camera name="overview" pos="1.45 -0.75 0.85" xyaxes="0.46 0.89 0 -0.45 0.23 0.86" fovy="45"/>
+{overview}
     {arm}
     <body name="goal" pos="{gx} {gy} 0.0005" euler="0 0 {gyaw}">
 {goal}    </body>
@@ -66,7 +63,8 @@ std::string push_xml(const PushConfig& c) {
 {act}  </actuator>
 </mujoco>
 )",
-                     fmt::arg("common", scene_common_xml(std::max(640, c.camera_size), std::max(640, c.camera_size))),
+                     fmt::arg("room", room_xml()), fmt::arg("cameras", side_cameras_xml() + overview_camera_xml()),
+                     fmt::arg("overview", overview_camera_xml()), fmt::arg("common", scene_common_xml(std::max(640, c.camera_size), std::max(640, c.camera_size))),
                      fmt::arg("arm", panda_body_xml(Tool::kStick, {0, 0, 0})), fmt::arg("gx", c.goal.x()),
                      fmt::arg("gy", c.goal.y()), fmt::arg("gyaw", c.goal.z()), fmt::arg("goal", t_geoms("goal", false, -kHalfZ + 0.0005)),
                      fmt::arg("z", kHalfZ + 0.001), fmt::arg("block", t_geoms("blue", true, 0)),

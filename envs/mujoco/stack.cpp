@@ -10,13 +10,8 @@ namespace dd::mj {
 std::string stack_xml(const StackConfig& c) {
   return fmt::format(R"(<mujoco model="stack">{common}
   <worldbody>
-    <light pos="0.4 -0.6 1.6" dir="0 0.35 -1" diffuse="0.7 0.7 0.7" castshadow="true"/>
-    <light pos="0.4 0.8 1.4" dir="0 -0.5 -1" diffuse="0.3 0.3 0.3" castshadow="false"/>
-    <geom name="floor" type="plane" size="3 3 0.1" pos="0 0 -0.75" material="floor"/>
-    <geom name="table" type="box" size="0.45 0.6 0.375" pos="0.45 0 -0.375" material="table"/>
-    <camera name="left" pos="0.5 -0.95 0.55" xyaxes="1 0 0 0 0.447 0.894" fovy="55"/>
-    <camera name="right" pos="0.5 0.95 0.55" xyaxes="-1 0 0 0 -0.447 0.894" fovy="55"/>
-    <camera name="overview" pos="1.45 -0.75 0.85" xyaxes="0.46 0.89 0 -0.45 0.23 0.86" fovy="45"/>
+{room}
+{cameras}
     {arm}
     <body name="red" pos="0.5 0 {rh}">
       <freejoint name="red"/>
@@ -31,7 +26,8 @@ std::string stack_xml(const StackConfig& c) {
 {act}  </actuator>
 </mujoco>
 )",
-                     fmt::arg("common", scene_common_xml(std::max(640, c.camera_size), std::max(640, c.camera_size))),
+                     fmt::arg("room", room_xml()), fmt::arg("cameras", side_cameras_xml() + overview_camera_xml()),
+                     fmt::arg("overview", overview_camera_xml()), fmt::arg("common", scene_common_xml(std::max(640, c.camera_size), std::max(640, c.camera_size))),
                      fmt::arg("arm", panda_body_xml(Tool::kGripper, {0, 0, 0})), fmt::arg("rh", c.red_half),
                      fmt::arg("gh", c.green_half), fmt::arg("act", panda_actuator_xml(Tool::kGripper)));
 }
