@@ -83,9 +83,18 @@ bool DaggerSession::tick() {
       emit({EventKind::kTimeout});
       hand_over(Control::kExpertTimeout);
     } else if (chunk_.rows() == 0 || chunk_pos_ >= config_.action_steps) {
-      const auto t = std::chrono::steady_clock::now();
-      const MethodDecision d = method_.decide(obs, episode_seed_ * 7919 + decisions_++);
-      const double took = std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count();
+      MethodDecision d;
+      double took = 0;
+      if (provided_) {
+        d = std::move(provided_decision_);
+        took = provided_seconds_;
+        provided_ = false;
+        ++decisions_;
+      } else {
+        const auto t = std::chrono::steady_clock::now();
+        d = method_.decide(obs, episode_seed_ * 7919 + decisions_++);
+        took = std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count();
+      }
       inference_s_ += took;
       const GateDecision g = method_.gated() ? gate_.record(d.violation) : GateDecision{};
       SessionEvent e{EventKind::kDecision};
@@ -116,8 +125,25 @@ bool DaggerSession::tick() {
 
 void DaggerSession::hand_over(Control to) {
   control_ = to;
+  provided_ = false;
   expert_acted_ = true;
   emit({EventKind::kTakeover});
+}
+
+bool DaggerSession::prepare() {
+  if (!done_ && !update_pending_ && !in_episode_) start_episode();
+  return in_episode_;
+}
+
+bool DaggerSession::decision_due() const {
+  return in_episode_ && !update_pending_ && control_ == Control::kRobot && env_.steps() < config_.time_limit &&
+         (chunk_.rows() == 0 || chunk_pos_ >= config_.action_steps);
+}
+
+void DaggerSession::provide_decision(MethodDecision decision, double seconds) {
+  provided_decision_ = std::move(decision);
+  provided_seconds_ = seconds;
+  provided_ = true;
 }
 
 void DaggerSession::end_episode_now() {
@@ -137,6 +163,7 @@ bool DaggerSession::hand_back() {
   gate_.reset();
   chunk_.resize(0, 0);
   chunk_pos_ = 0;
+  provided_ = false;
   emit({EventKind::kHandBack});
   return true;
 }
@@ -150,6 +177,7 @@ void DaggerSession::start_episode() {
   gate_.reset();
   chunk_.resize(0, 0);
   chunk_pos_ = 0;
+  provided_ = false;
   obs_.clear();
   actions_.clear();
   flags_.clear();

@@ -96,6 +96,16 @@ class DaggerSession {
   /// afresh and the robot plans a new chunk. False unless an expert answering a query or the operator
   /// is in control (a time-out or a demonstration cannot be handed back).
   bool hand_back();
+  /// Starts the next episode now if one is due (no update pending, not done); tick() would start it
+  /// itself. Returns whether an episode is in progress. Lets a caller see the first decision coming.
+  bool prepare();
+  /// True when the next tick() will ask the method for a decision.
+  bool decision_due() const;
+  /// The seed the next decision uses.
+  uint64_t next_decision_seed() const { return episode_seed_ * 7919 + decisions_; }
+  /// Hands in the decision for the next tick (computed elsewhere, e.g. on a worker thread, with
+  /// method.decide(observation(), next_decision_seed())); the tick then uses it instead of deciding.
+  void provide_decision(MethodDecision decision, double seconds);
   /// Ends the current episode where it stands (a reset, or the console closing): it is recorded like
   /// any other, so the expert steps it holds reach the data set. No-op between episodes.
   void end_episode_now();
@@ -139,6 +149,9 @@ class DaggerSession {
   uint64_t episode_seed_ = 0, decisions_ = 0;
   Mat chunk_;
   int chunk_pos_ = 0;
+  bool provided_ = false;
+  MethodDecision provided_decision_;
+  double provided_seconds_ = 0;
   double inference_s_ = 0;
   std::vector<Vec> obs_, actions_;
   std::vector<uint8_t> flags_;

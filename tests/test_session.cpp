@@ -361,6 +361,35 @@ TEST(Session, EndingAnEpisodeEarlyKeepsItsExpertSteps) {
   EXPECT_EQ(s.expert_data().size(), 1u);
 }
 
+TEST(Session, DecisionsMadeElsewhereGiveTheSameRun) {
+  // the console computes decisions on a worker thread and hands them in; the run must not change
+  auto run = [](bool provide) {
+    LineEnv env;
+    ForwardExpert expert;
+    ScriptedMethod method({false, true, true, false, true, false, false, true, true}, 0.5f);
+    DaggerConfig c = small_config();
+    DaggerSession s(env, expert, method, c, no_training());
+    Recorder rec;
+    s.add_observer(rec.fn());
+    for (int i = 0; i < 10000 && !s.done(); ++i) {
+      if (provide && s.prepare() && s.decision_due()) {
+        const uint64_t seed = s.next_decision_seed();
+        s.provide_decision(method.decide(env.observation(), seed), 0.0);
+      }
+      s.tick();
+    }
+    return rec;
+  };
+  const Recorder inline_run = run(false), provided_run = run(true);
+  EXPECT_EQ(inline_run.kinds(), provided_run.kinds());
+  EXPECT_GT(inline_run.count(EventKind::kQuery), 0);
+  ASSERT_EQ(inline_run.events.size(), provided_run.events.size());
+  for (size_t i = 0; i < inline_run.events.size(); ++i) {
+    EXPECT_EQ(inline_run.events[i].step, provided_run.events[i].step);
+    EXPECT_EQ(inline_run.events[i].score, provided_run.events[i].score);
+  }
+}
+
 TEST(Session, RejectsBadSchedules) {
   LineEnv env;
   ForwardExpert expert;

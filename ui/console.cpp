@@ -7,6 +7,7 @@
 
 #include <algorithm>
 #include <atomic>
+#include <chrono>
 #include <cmath>
 #include <deque>
 #include <filesystem>
@@ -179,6 +180,13 @@ struct Console::State {
   std::atomic<bool> busy{false};
   std::atomic<float> progress{0.f};
   std::string busy_label, worker_error;
+  // a robot decision computed on the worker (windowed runs), handed to the session when ready
+  MethodDecision decision;
+  double decision_s = 0;
+  bool decision_ready = false;
+  std::vector<int> deferred_keys;  // session keys pressed while a decision was being computed
+  bool updating() const { return busy && busy_label != "decision"; }
+  bool deciding() const { return busy && busy_label == "decision"; }
 
   // what the views show
   std::deque<Decision> decisions;
@@ -213,8 +221,8 @@ struct Console::State {
   int screenshot_count = 0;
 
   // frame times
-  double frame_ms = 0, busy_frame_sum = 0, busy_frame_max = 0, frame_sum = 0;
-  int busy_frames = 0, frames = 0;
+  double frame_ms = 0, busy_frame_sum = 0, busy_frame_max = 0, frame_sum = 0, frame_max = 0, run_frame_sum = 0, run_frame_max = 0;
+  int busy_frames = 0, frames = 0, run_frames = 0;
 
   std::string status;
 
@@ -380,7 +388,11 @@ void Console::shutdown() {
   s.log->note("console_end", std::to_string(s.session->expert_demos()) + " expert demos, " +
                                  std::to_string(s.session->updates()) + " updates");
   if (s.frames > 1 && !s.o.fixed_step)
-    spdlog::info("console: frame time over the session: mean {:.1f} ms over {} frames", s.frame_sum / (s.frames - 1), s.frames - 1);
+    spdlog::info("console: frame time over the session: mean {:.1f} ms, max {:.1f} ms over {} frames", s.frame_sum / (s.frames - 1),
+                 s.frame_max, s.frames - 1);
+  if (s.run_frames > 0 && !s.o.fixed_step)
+    spdlog::info("console: frame time while the robot was in control: mean {:.1f} ms, max {:.1f} ms over {} frames",
+                 s.run_frame_sum / s.run_frames, s.run_frame_max, s.run_frames);
   if (s.busy_frames > 0 && !s.o.fixed_step)
     spdlog::info("console: frame time while the worker trained: mean {:.1f} ms, max {:.1f} ms over {} frames",
                  s.busy_frame_sum / s.busy_frames, s.busy_frame_max, s.busy_frames);
@@ -557,6 +569,11 @@ void take_over(Console::State& s) {
 }
 
 void handle_key(Console::State& s, int key) {
+  const bool session_key = key == GLFW_KEY_T || key == GLFW_KEY_H || key == GLFW_KEY_R || key == GLFW_KEY_S || key == GLFW_KEY_E;
+  if (s.deciding() && session_key) {  // acted on as soon as the decision is in
+    s.deferred_keys.push_back(key);
+    return;
+  }
   const bool idle = !s.busy;
   switch (key) {
     case GLFW_KEY_T: if (idle) take_over(s); break;
@@ -642,6 +659,31 @@ void advance(Console::State& s, double dt) {
     s.tick_budget -= ticks;
   }
   for (int i = 0; i < ticks; ++i) {
+    if (!s.o.fixed_step) {
+      // the robot's decisions run on the worker so that the window keeps drawing (headless runs
+      // decide inline: same results, one frame per step)
+      if (s.decision_ready) {
+        s.decision_ready = false;
+        std::vector<int> keys;
+        keys.swap(s.deferred_keys);
+        for (int k : keys) handle_key(s, k);
+        if (s.session->decision_due()) s.session->provide_decision(std::move(s.decision), s.decision_s);
+      } else {
+        s.session->prepare();
+        drain(s);
+        if (s.session->decision_due()) {
+          const Vec obs = s.env->observation();
+          const uint64_t seed = s.session->next_decision_seed();
+          start_worker(s, "decision", [&s, obs, seed] {
+            const auto t = std::chrono::steady_clock::now();
+            s.decision = s.method->decide(obs, seed);
+            s.decision_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count();
+            s.decision_ready = true;
+          });
+          break;
+        }
+      }
+    }
     s.session->tick();
     const Control used = s.session->control();  // who acted in this step
     drain(s);
@@ -845,7 +887,7 @@ void scene_view(Console::State& s, ImVec2 pos, ImVec2 size) {
                                              : "T: take over    E: scripted expert    Esc: quit";
     ls = ImGui::CalcTextSize(keys);
     dl->AddText(ImVec2(a.x + (w - ls.x) * 0.5f, a.y + 66), IM_COL32(255, 255, 255, 255), keys);
-  } else if (s.busy) {
+  } else if (s.updating()) {
     const float w = 300, h = 54;
     const ImVec2 a(origin.x + (side - w) * 0.5f, origin.y + 20), b(a.x + w, a.y + h);
     dl->AddRectFilled(a, b, IM_COL32(18, 22, 30, 225), 8.f);
@@ -863,7 +905,7 @@ void scene_view(Console::State& s, ImVec2 pos, ImVec2 size) {
                       ImVec2(origin.x + (side + ts.x) * 0.5f + 10, origin.y + 40), IM_COL32(120, 70, 170, 220), 6.f);
     dl->AddText(ImVec2(origin.x + (side - ts.x) * 0.5f, origin.y + 19), IM_COL32(255, 255, 255, 255), t);
   }
-  if (s.show_field && !s.field_valid && !s.busy) {
+  if (s.show_field && !s.field_valid && !s.updating()) {
     const char* t = s.session->updates() == 0 ? "the loss field needs a trained policy" : "press F again to compute the field";
     dl->AddText(ImVec2(origin.x + 12, origin.y + 12), kAxisText, t);
   }
@@ -1039,7 +1081,7 @@ void session_view(Console::State& s, ImVec2 pos, ImVec2 size) {
   stat_row("frame", b);
   ImGui::Columns(1);
   ImGui::Separator();
-  if (s.busy) {
+  if (s.updating()) {
     char label[64];
     std::snprintf(label, sizeof label, "%s %d%%", s.busy_label.c_str(), static_cast<int>(s.progress * 100));
     ImGui::ProgressBar(s.progress, ImVec2(-1, 0), label);
@@ -1073,11 +1115,11 @@ void top_bar(Console::State& s, ImVec2 size) {
   ImGui::SameLine(0, 24);
   // the control-mode pill
   const Control c = s.session->in_episode() ? s.session->control() : Control::kRobot;
-  std::string mode = s.session->done() ? "done" : s.busy ? "updating" : s.awaiting ? "WAITING FOR THE OPERATOR" : control_label(c);
+  std::string mode = s.session->done() ? "done" : s.updating() ? "updating" : s.awaiting ? "WAITING FOR THE OPERATOR" : control_label(c);
   if (s.paused && !s.session->done()) mode += " (paused)";
   const ImVec2 ts = ImGui::CalcTextSize(mode.c_str());
   const ImVec2 p = ImGui::GetCursorScreenPos();
-  const ImU32 col = s.awaiting ? kViolationRed : s.busy ? IM_COL32(90, 96, 110, 255) : control_color(c);
+  const ImU32 col = s.awaiting ? kViolationRed : s.updating() ? IM_COL32(90, 96, 110, 255) : control_color(c);
   ImGui::GetWindowDrawList()->AddRectFilled(ImVec2(p.x - 8, p.y - 2), ImVec2(p.x + ts.x + 8, p.y + ts.y + 2), col, 10.f);
   ImGui::TextUnformatted(mode.c_str());
   const char* hint = "F1 help";
@@ -1130,7 +1172,15 @@ void close_dialog(Console::State& s) {
 void Console::frame(const FrameInput& in) {
   State& s = *s_;
   s.frame_ms = 0.9 * s.frame_ms + 0.1 * in.dt * 1e3;
-  if (s.frames++ > 0) s.frame_sum += in.dt * 1e3;
+  if (s.frames++ > 0) {
+    s.frame_sum += in.dt * 1e3;
+    s.frame_max = std::max(s.frame_max, in.dt * 1e3);
+    if (!s.updating() && s.session->in_episode() && s.session->control() == Control::kRobot) {  // the robot deciding and acting
+      s.run_frame_sum += in.dt * 1e3;
+      s.run_frame_max = std::max(s.run_frame_max, in.dt * 1e3);
+      ++s.run_frames;
+    }
+  }
   if (s.busy && s.busy_label == "policy update") {
     s.busy_frame_sum += in.dt * 1e3;
     s.busy_frame_max = std::max(s.busy_frame_max, in.dt * 1e3);
