@@ -197,6 +197,30 @@ TEST(Mujoco, PlugExpertInsertsOverSeededEpisodes) {
   EXPECT_GE(ok, 5);
 }
 
+TEST(Mujoco, PlugExpertTakesOverMidEpisode) {
+  PlugEnv env;
+  PlugExpert expert;
+  int ok = 0;
+  for (int s = 0; s < 4; ++s) {
+    env.reset(500 + s);
+    std::mt19937 rng(s);
+    std::uniform_real_distribution<float> u(-1, 1);
+    for (int t = 0; t < 30; ++t) {  // a wandering robot first
+      Vec a(10);
+      a.head<3>() << 0.5f + 0.1f * u(rng), 0.15f * u(rng), 0.12f + 0.05f * u(rng);
+      a.segment<6>(3) = rot6d(tool_down(0.4 * u(rng))).cast<float>();
+      a[9] = u(rng) > 0 ? 1.f : 0.f;
+      env.step(a);
+    }
+    expert.reset(500 + s);
+    env.set_time_limit(env.steps() + 500);
+    StepResult r;
+    while (!r.done) r = env.step(expert.act(env));
+    ok += env.success();
+  }
+  EXPECT_GE(ok, 3);
+}
+
 TEST(Mujoco, PlugIsDeterministic) {
   PlugEnv a, b;
   PlugExpert ea, eb;
@@ -254,6 +278,28 @@ TEST(Mujoco, PushExpertsTurnTheBlockTheirOwnWayHome) {
     std::printf("push expert %s: %d/%d, mean %.1f steps\n", expert.name().c_str(), ok, n, ok ? double(steps) / ok : 0.0);
     EXPECT_GE(ok, 4) << expert.name();
   }
+}
+
+TEST(Mujoco, PushExpertTakesOverMidEpisode) {
+  PushEnv env;
+  PushExpert expert(PushExpert::Mode::kCounterClockwise);
+  int ok = 0;
+  for (int s = 0; s < 4; ++s) {
+    env.reset(600 + s);
+    std::mt19937 rng(s);
+    std::uniform_real_distribution<float> u(-1, 1);
+    for (int t = 0; t < 25; ++t) {  // random joint jiggles first
+      Vec a(7);
+      for (int j = 0; j < 7; ++j) a[j] = 0.05f * u(rng);
+      env.step(a);
+    }
+    expert.reset(600 + s);
+    env.set_time_limit(env.steps() + 250);
+    StepResult r;
+    while (!r.done) r = env.step(expert.act(env));
+    ok += env.success();
+  }
+  EXPECT_GE(ok, 3);
 }
 
 TEST(Mujoco, MixedPushExpertUsesBothSenses) {
