@@ -67,6 +67,7 @@ void PushExpert::choose_contact(const PushEnv& env) {
       const Eigen::Vector2d c = e.a + (e.b - e.a) * (double(i) / n);
       const Eigen::Vector2d out = c + e.normal * 0.012;
       if (t_distance(out) < 0.011) continue;  // a concave corner: the stick would not fit
+      if (t_distance(c + e.normal * kStandoff) < 0.016) continue;  // nor stand off before the push
       const Eigen::Vector2d r = R * c, d = -(R * e.normal);
       const Eigen::Vector3d pred(d.x(), d.y(), cross(r, d) / kGyration);
       const Eigen::Vector2d pre = b.head<2>() + R * (c + e.normal * kStandoff);
@@ -113,9 +114,9 @@ Vec PushExpert::act(const Env& base) {
     } else {
       // down only when over the standoff point, up when the straight way would cross the block
       bool blocked = false;
-      for (int i = 0; i <= 10; ++i) {  // the standoff point itself is kStandoff from the block
+      for (int i = 0; i < 10; ++i) {  // would the stick (radius 12 mm) touch the block on the way?
         const Eigen::Vector3d p = tip + (Eigen::Vector3d(pre_xy.x(), pre_xy.y(), tip.z()) - tip) * (i / 10.0);
-        if (t_distance(to_block(p)) < kStandoff - 0.006) blocked = true;
+        if (t_distance(to_block(p)) < 0.015) blocked = true;
       }
       if (blocked && tip.z() < kLiftZ - 0.01) goal = {tip.x(), tip.y(), kLiftZ};
       else if (!near) goal = {pre_xy.x(), pre_xy.y(), blocked ? kLiftZ : target_.z()};
