@@ -122,6 +122,42 @@ TEST(Console, ScriptedOperatorTakesOverDrivesAndHandsBack) {
   fs::remove_all(dir);
 }
 
+TEST(Console, OperatorDrivesTheArmAndTogglesTheGripper) {
+  const std::string dir = temp_dir("arm");
+  fs::create_directories(dir);
+  const std::string script = dir + "/script.yaml";
+  std::ofstream(script) << "- {on: update, after: 3, key: T}\n"
+                           "- {on: takeover, after: 1, hold: Up, frames: 12}\n"
+                           "- {on: takeover, after: 14, key: G}\n"
+                           "- {on: takeover, after: 20, key: R}\n";
+  ConsoleRunOptions run;
+  run.script = script;
+  run.max_frames = 260;
+  ConsoleOptions options = quick_options(dir + "/run", "stack");
+  options.pause_on_query = false;  // a query must not stand in for the takeover
+  ASSERT_EQ(run_headless(options, run), 0);
+  // the operator's steps are in the data set: the TCP target moved and the gripper command changed
+  bool found = false;
+  for (const RecordedEpisode& e : read_dataset(dir + "/run/dataset.hdf5")) {
+    if (e.source != "intervention") continue;
+    std::vector<Eigen::Index> rows;
+    for (size_t t = 0; t < e.intervention.size(); ++t)
+      if (e.intervention[t]) rows.push_back(static_cast<Eigen::Index>(t));
+    if (rows.size() < 15) continue;
+    const double moved = (e.actions.row(rows.back()).head(3) - e.actions.row(rows.front()).head(3)).norm();
+    float grip_min = 1, grip_max = 0;
+    for (Eigen::Index r : rows) {
+      grip_min = std::min(grip_min, e.actions(r, 9));
+      grip_max = std::max(grip_max, e.actions(r, 9));
+    }
+    EXPECT_GT(moved, 0.05) << "the jogged TCP target should have moved ~12 cm";
+    EXPECT_GT(grip_max - grip_min, 0.5f) << "G should have toggled the gripper command";
+    found = true;
+  }
+  EXPECT_TRUE(found) << "no operator intervention in the data set";
+  fs::remove_all(dir);
+}
+
 TEST(Console, MalformedScriptNamesTheFileAndTheField) {
   const std::string dir = temp_dir("bad");
   fs::create_directories(dir);
