@@ -7,6 +7,7 @@
 #include "app/commands.h"
 #include "core/config.h"
 #include "core/dataset.h"
+#include "core/evaluation.h"
 #include "core/progress.h"
 #include "envs/registry.h"
 
@@ -38,31 +39,10 @@ Command add_collect(CLI::App& app) {
     ProgressBar bar(fmt::format("collect {} ({})", o->task, expert->name()), "success");
     for (int e = 0; e < o->episodes; ++e) {
       const uint64_t seed = o->seed + static_cast<uint64_t>(e);
-      env->reset(seed);
-      expert->reset(seed);
-      std::vector<Vec> obs, act;
-      StepResult r;
-      while (!r.done) {
-        obs.push_back(env->observation());
-        act.push_back(expert->act(*env));
-        r = env->step(act.back());
-      }
-      const bool success = env->success();
-      ok += success;
-      if (success) success_steps += env->steps();
-      if (success || o->keep_failures) {
-        RecordedEpisode rec;
-        rec.obs.resize(static_cast<Eigen::Index>(obs.size()), env->obs_dim());
-        rec.actions.resize(static_cast<Eigen::Index>(act.size()), env->action_dim());
-        for (size_t t = 0; t < obs.size(); ++t) {
-          rec.obs.row(static_cast<Eigen::Index>(t)) = obs[t].transpose();
-          rec.actions.row(static_cast<Eigen::Index>(t)) = act[t].transpose();
-        }
-        rec.success = success;
-        rec.intervention.assign(obs.size(), 1);
-        rec.rewards.assign(obs.size(), 0.f);
-        if (success) rec.rewards.back() = 1.f;
-        rec.source = "expert";
+      const RecordedEpisode rec = expert_episode(*env, *expert, seed);
+      ok += rec.success;
+      if (rec.success) success_steps += rec.steps();
+      if (rec.success || o->keep_failures) {
         writer.append(rec);  // durable before the next episode
         ++recorded;
       }

@@ -63,19 +63,13 @@ Demos collect(int n, uint64_t seed) {
       ++failures;
       continue;
     }
-    Episode ep{Mat(static_cast<Eigen::Index>(obs.size()), 4), Mat(static_cast<Eigen::Index>(act.size()), 2)};
-    for (size_t i = 0; i < obs.size(); ++i) {
-      ep.obs.row(static_cast<Eigen::Index>(i)) = obs[i].transpose();
-      ep.actions.row(static_cast<Eigen::Index>(i)) = act[i].transpose();
-      rows.push_back(obs[i]);
-    }
-    d.episodes.push_back(std::move(ep));
+    rows.insert(rows.end(), obs.begin(), obs.end());
+    d.episodes.push_back(Episode{stack_rows(obs, 4), stack_rows(act, 2)});
     d.paths.push_back(std::move(path));
     d.clockwise.push_back(expert.episode_mode() == Nav2dExpert::Mode::kClockwise);
   }
   if (failures) spdlog::warn("demo2d: {} of {} expert episodes failed and were dropped", failures, n);
-  d.states.resize(static_cast<Eigen::Index>(rows.size()), 4);
-  for (size_t i = 0; i < rows.size(); ++i) d.states.row(static_cast<Eigen::Index>(i)) = rows[i].transpose();
+  d.states = stack_rows(rows, 4);
   return d;
 }
 
@@ -309,8 +303,7 @@ Demo2dResult run_demo2d(const Demo2dOptions& o) {
       cell_obs.push_back(state(p, nearest_velocity(demos.states, p)));
     }
   }
-  Mat field_obs(static_cast<Eigen::Index>(cell_obs.size()), 4);
-  for (size_t i = 0; i < cell_obs.size(); ++i) field_obs.row(static_cast<Eigen::Index>(i)) = cell_obs[i].transpose();
+  const Mat field_obs = stack_rows(cell_obs, 4);
   std::vector<float> field_loss;
   {
     ProgressBar bar("[5/5] loss field", "loss");

@@ -53,23 +53,8 @@ std::vector<Episode> collect_demos(const std::string& task, const std::string& m
   auto expert = make_expert(task, mode);
   std::vector<Episode> out;
   for (int e = 0; static_cast<int>(out.size()) < n && e < 10 * n; ++e) {
-    const uint64_t s = seed * 1000033ull + 777 + static_cast<uint64_t>(e);
-    env->reset(s);
-    expert->reset(s);
-    std::vector<Vec> obs, act;
-    bool done = false;
-    while (!done) {
-      obs.push_back(env->observation());
-      act.push_back(expert->act(*env));
-      done = env->step(act.back()).done;
-    }
-    if (!env->success()) continue;
-    Episode ep{Mat(static_cast<Eigen::Index>(obs.size()), env->obs_dim()), Mat(static_cast<Eigen::Index>(act.size()), env->action_dim())};
-    for (size_t i = 0; i < obs.size(); ++i) {
-      ep.obs.row(static_cast<Eigen::Index>(i)) = obs[i].transpose();
-      ep.actions.row(static_cast<Eigen::Index>(i)) = act[i].transpose();
-    }
-    out.push_back(std::move(ep));
+    const RecordedEpisode ep = expert_episode(*env, *expert, seed * 1000033ull + 777 + static_cast<uint64_t>(e));
+    if (ep.success) out.push_back(ep.all_steps());
   }
   return out;
 }

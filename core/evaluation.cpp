@@ -41,12 +41,8 @@ std::vector<RolloutResult> evaluate_rollouts(Env& env, Method& method, int episo
     r.steps = env.steps();
     if (recorded) {
       RecordedEpisode ep;
-      ep.obs.resize(static_cast<Eigen::Index>(obs.size()), env.obs_dim());
-      ep.actions.resize(static_cast<Eigen::Index>(act.size()), env.action_dim());
-      for (size_t i = 0; i < obs.size(); ++i) {
-        ep.obs.row(static_cast<Eigen::Index>(i)) = obs[i].transpose();
-        ep.actions.row(static_cast<Eigen::Index>(i)) = act[i].transpose();
-      }
+      ep.obs = stack_rows(obs, env.obs_dim());
+      ep.actions = stack_rows(act, env.action_dim());
       ep.success = r.success;
       ep.source = "robot";
       recorded->push_back(std::move(ep));
@@ -55,6 +51,27 @@ std::vector<RolloutResult> evaluate_rollouts(Env& env, Method& method, int episo
     if (progress) progress(e + 1, episodes, success_rate(out));
   }
   return out;
+}
+
+RecordedEpisode expert_episode(Env& env, Expert& expert, uint64_t seed) {
+  env.reset(seed);
+  expert.reset(seed);
+  std::vector<Vec> obs, act;
+  bool done = false;
+  while (!done) {
+    obs.push_back(env.observation());
+    act.push_back(expert.act(env));
+    done = env.step(act.back()).done;
+  }
+  RecordedEpisode ep;
+  ep.obs = stack_rows(obs, env.obs_dim());
+  ep.actions = stack_rows(act, env.action_dim());
+  ep.success = env.success();
+  ep.intervention.assign(obs.size(), 1);
+  ep.rewards.assign(obs.size(), 0.f);
+  if (ep.success && !obs.empty()) ep.rewards.back() = 1.f;
+  ep.source = "expert";
+  return ep;
 }
 
 FailurePrediction failure_prediction(const std::vector<RolloutResult>& results) {

@@ -26,6 +26,10 @@ std::vector<RolloutResult> evaluate_rollouts(Env& env, Method& method, int episo
                                              int action_steps, uint64_t seed, const ProgressFn& progress = {},
                                              std::vector<RecordedEpisode>* recorded = nullptr);
 
+/// One episode of `expert` from `seed` (env and expert reset with it), run until the env says done:
+/// every step flagged as an intervention, source "expert", reward 1 on the last step of a success.
+RecordedEpisode expert_episode(Env& env, Expert& expert, uint64_t seed);
+
 /// The confusion matrix of queries against failures: positive = query, actual positive = failure.
 struct FailurePrediction {
   int tp = 0, fp = 0, tn = 0, fn = 0;

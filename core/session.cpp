@@ -191,12 +191,8 @@ void DaggerSession::start_episode() {
 void DaggerSession::end_episode() {
   RecordedEpisode rec;
   const auto T = static_cast<Eigen::Index>(obs_.size());
-  rec.obs.resize(T, env_.obs_dim());
-  rec.actions.resize(T, env_.action_dim());
-  for (Eigen::Index t = 0; t < T; ++t) {
-    rec.obs.row(t) = obs_[static_cast<size_t>(t)].transpose();
-    rec.actions.row(t) = actions_[static_cast<size_t>(t)].transpose();
-  }
+  rec.obs = stack_rows(obs_, env_.obs_dim());
+  rec.actions = stack_rows(actions_, env_.action_dim());
   rec.intervention = flags_;
   rec.success = env_.success();
   rec.rewards.assign(static_cast<size_t>(T), 0.f);

@@ -9,6 +9,7 @@
 #include <random>
 
 #include "core/config.h"
+#include "core/evaluation.h"
 #include "envs/mujoco/planner.h"
 #include "envs/mujoco/stack.h"
 #include "envs/mujoco/stack_expert.h"
@@ -27,11 +28,8 @@ struct Outcome {
 };
 
 Outcome run_expert(Env& env, Expert& expert, uint64_t seed) {
-  env.reset(seed);
-  expert.reset(seed);
-  StepResult r;
-  while (!r.done) r = env.step(expert.act(env));
-  return {env.success(), env.steps()};
+  const RecordedEpisode ep = expert_episode(env, expert, seed);
+  return {ep.success, ep.steps()};
 }
 
 uint64_t state_hash(const Env& env) {

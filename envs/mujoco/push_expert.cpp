@@ -103,7 +103,7 @@ Vec PushExpert::act(const Env& base) {
     choose_contact(*env);
     pre_xy = b.head<2>() + R * (contact_ + normal_ * kStandoff);
   }
-  Eigen::Vector3d goal;
+  Eigen::Vector3d goal = target_;  // every phase below sets it
   double step = speed;
   if (phase_ == Phase::kApproach) {
     // judged from where the tip is, not from where it was told to go
