@@ -37,6 +37,8 @@ Vec7 panda_lower() { return (Vec7() << -2.8973, -1.7628, -2.8973, -3.0718, -2.89
 Vec7 panda_upper() { return (Vec7() << 2.8973, 1.7628, 2.8973, -0.0698, 2.8973, 3.7525, 2.8973).finished(); }
 Vec7 panda_home() { return (Vec7() << 0, -0.35, 0, -2.3, 0, 1.95, M_PI / 4).finished(); }
 
+namespace {
+
 std::string scene_common_xml(int w, int h) {
   return fmt::format(R"(
   <compiler angle="radian"/>
@@ -74,16 +76,6 @@ std::string room_xml() {
     <geom name="table" type="box" size="0.45 0.6 0.375" pos="0.45 0 -0.375" material="table"/>)";
 }
 
-std::string side_cameras_xml() {
-  return R"(    <camera name="left" pos="0.5 -0.95 0.55" xyaxes="1 0 0 0 0.447 0.894" fovy="55"/>
-    <camera name="right" pos="0.5 0.95 0.55" xyaxes="-1 0 0 0 -0.447 0.894" fovy="55"/>
-)";
-}
-
-std::string overview_camera_xml() {
-  return R"(    <camera name="overview" pos="1.45 -0.75 0.85" xyaxes="0.46 0.89 0 -0.45 0.23 0.86" fovy="45"/>)";
-}
-
 std::string panda_body_xml(Tool tool, const Eigen::Vector3d& base) {
   std::string x = fmt::format(R"(<body name="link0" pos="{} {} {}">
   <geom class="visual" type="cylinder" size="0.07 0.03" pos="0 0 0.03" material="dark"/>
@@ -117,20 +109,18 @@ std::string panda_body_xml(Tool tool, const Eigen::Vector3d& base) {
   if (tool == Tool::kGripper) {
     x += fmt::format(R"(  <geom type="box" size="0.025 0.095 0.03" pos="0 0 0.03" material="white"/>
   <site name="tcp" pos="0 0 {}" size="0.006" rgba="1 0.5 0 0.6" group="2"/>
-  <body name="finger_left" pos="0 0 0.0584">
-    <inertial pos="0 0.01 0.03" mass="0.05" diaginertia="1e-5 1e-5 1e-5"/>
-    <joint name="finger_left" type="slide" axis="0 1 0" limited="true" range="0 0.04" damping="5" armature="0.01"/>
-    <geom type="box" size="0.01 0.006 0.028" pos="0 0.016 0.018" material="dark"/>
-    <geom name="pad_left" type="box" size="0.01 0.004 0.012" pos="0 0.004 0.042" material="dark" friction="1.5 0.01 0.0005"/>
-  </body>
-  <body name="finger_right" pos="0 0 0.0584">
-    <inertial pos="0 -0.01 0.03" mass="0.05" diaginertia="1e-5 1e-5 1e-5"/>
-    <joint name="finger_right" type="slide" axis="0 -1 0" limited="true" range="0 0.04" damping="5" armature="0.01"/>
-    <geom type="box" size="0.01 0.006 0.028" pos="0 -0.016 0.018" material="dark"/>
-    <geom name="pad_right" type="box" size="0.01 0.004 0.012" pos="0 -0.004 0.042" material="dark" friction="1.5 0.01 0.0005"/>
-  </body>
 )",
                      kTcp);
+    // the two fingers mirror each other across the hand's x-z plane; each slides outwards along +-y
+    for (const auto& [name, sign] : {std::pair<const char*, int>{"left", 1}, {"right", -1}})
+      x += fmt::format(R"(  <body name="finger_{0}" pos="0 0 0.0584">
+    <inertial pos="0 {1} 0.03" mass="0.05" diaginertia="1e-5 1e-5 1e-5"/>
+    <joint name="finger_{0}" type="slide" axis="0 {2} 0" limited="true" range="0 0.04" damping="5" armature="0.01"/>
+    <geom type="box" size="0.01 0.006 0.028" pos="0 {3} 0.018" material="dark"/>
+    <geom name="pad_{0}" type="box" size="0.01 0.004 0.012" pos="0 {4} 0.042" material="dark" friction="1.5 0.01 0.0005"/>
+  </body>
+)",
+                       name, 0.01 * sign, sign, 0.016 * sign, 0.004 * sign);
   } else {
     x += fmt::format(R"(  <geom type="box" size="0.025 0.06 0.03" pos="0 0 0.03" material="white"/>
   <geom name="stick" type="capsule" fromto="0 0 0.05 0 0 {}" size="0.012" material="dark"/>
@@ -159,6 +149,34 @@ std::string panda_actuator_xml(Tool tool) {
 )";
   }
   return x;
+}
+
+}  // namespace
+
+std::string side_cameras_xml() {
+  return R"(    <camera name="left" pos="0.5 -0.95 0.55" xyaxes="1 0 0 0 0.447 0.894" fovy="55"/>
+    <camera name="right" pos="0.5 0.95 0.55" xyaxes="-1 0 0 0 -0.447 0.894" fovy="55"/>
+)";
+}
+
+std::string overview_camera_xml() {
+  return R"(    <camera name="overview" pos="1.45 -0.75 0.85" xyaxes="0.46 0.89 0 -0.45 0.23 0.86" fovy="45"/>)";
+}
+
+std::string arm_scene_xml(const std::string& model, Tool tool, int camera_size, const std::string& cameras,
+                          const std::string& bodies) {
+  const int buffer = std::max(640, camera_size);
+  return fmt::format(R"(<mujoco model="{}">{}
+  <worldbody>
+{}
+{}
+{}{}  </worldbody>
+  <actuator>
+{}  </actuator>
+</mujoco>
+)",
+                     model, scene_common_xml(buffer, buffer), room_xml(), cameras, panda_body_xml(tool, {0, 0, 0}), bodies,
+                     panda_actuator_xml(tool));
 }
 
 PandaArm::PandaArm(const mjModel* m, Tool tool) : tool_(tool) {

@@ -15,15 +15,11 @@ enum class Tool { kGripper, kStick };
 
 using Vec7 = Eigen::Matrix<double, 7, 1>;
 
-/// The arm's <body> tree (base at `base`, world frame), to be placed in <worldbody>.
-std::string panda_body_xml(Tool tool, const Eigen::Vector3d& base);
-/// Its actuators: 7 joint servos (and 2 finger servos with the gripper).
-std::string panda_actuator_xml(Tool tool);
-/// Defaults, textures and materials shared by the scenes (a <default> and an <asset> block).
-std::string scene_common_xml(int offscreen_width, int offscreen_height);
-
-/// The room every arm scene shares: two lights, the floor and the table (top at z = 0).
-std::string room_xml();
+/// A whole arm scene: shared defaults and assets, the room (lights, floor, table with its top at
+/// z = 0), `cameras`, the arm with `tool` at the origin, the task's `bodies`, and the arm's actuators.
+/// The offscreen buffer is at least 640 px square (the console's view) and fits `camera_size`.
+std::string arm_scene_xml(const std::string& model, Tool tool, int camera_size, const std::string& cameras,
+                          const std::string& bodies);
 /// The left and right cameras over the table (stacking, plugging), and the overview camera.
 std::string side_cameras_xml();
 std::string overview_camera_xml();

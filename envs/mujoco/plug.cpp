@@ -11,30 +11,25 @@ constexpr double kWall = 0.035;       // socket depth and receptacle height [m]
 constexpr double kHandleHalfZ = 0.015;
 constexpr double kProngHalfZ = 0.015;
 constexpr double kDockWall = 0.02;
+
+// Four walls of height h around a square hole of half-width `hole`, walls `thick` thick.
+std::string walled_hole(double hole, double thick, double h, const char* material) {
+  const double o = hole + thick, m = hole + thick / 2;
+  std::string out;
+  for (const auto& [x, y, hx, hy] :
+       std::vector<std::array<double, 4>>{{0, m, o, thick / 2}, {0, -m, o, thick / 2}, {m, 0, thick / 2, hole}, {-m, 0, thick / 2, hole}})
+    out += fmt::format(R"(      <geom type="box" pos="{} {} {}" size="{} {} {}" material="{}"/>
+)",
+                       x, y, h / 2, hx, hy, h / 2, material);
+  return out;
+}
+
 }  // namespace
 
 std::string plug_xml(const PlugConfig& c) {
-  // the receptacle and the dock are mocap bodies: fixed in the physics, placed per episode
-  const double s = c.socket_half, w = 0.03;  // socket half-width, wall thickness
-  const double o = s + w;                    // outer half-width
-  std::string receptacle, dock;
-  for (const auto& [x, y, hx, hy] : std::vector<std::array<double, 4>>{{0, s + w / 2, o, w / 2}, {0, -s - w / 2, o, w / 2},
-                                                                        {s + w / 2, 0, w / 2, s}, {-s - w / 2, 0, w / 2, s}})
-    receptacle += fmt::format(R"(      <geom type="box" pos="{} {} {}" size="{} {} {}" material="blue"/>
-)",
-                              x, y, kWall / 2, hx, hy, kWall / 2);
-  const double d = 0.014, dw = 0.012;  // dock hole half-width (loose), wall thickness
-  for (const auto& [x, y, hx, hy] : std::vector<std::array<double, 4>>{{0, d + dw / 2, d + dw, dw / 2}, {0, -d - dw / 2, d + dw, dw / 2},
-                                                                        {d + dw / 2, 0, dw / 2, d}, {-d - dw / 2, 0, dw / 2, d}})
-    dock += fmt::format(R"(      <geom type="box" pos="{} {} {}" size="{} {} {}" material="dark"/>
-)",
-                        x, y, kDockWall / 2, hx, hy, kDockWall / 2);
-  return fmt::format(R"(<mujoco model="plug">{common}
-  <worldbody>
-{room}
-{cameras}
-    {arm}
-    <body name="receptacle" mocap="true" pos="0.5 0.15 0">
+  // the receptacle and the dock are mocap bodies: fixed in the physics, placed per episode; the dock's
+  // hole (14 mm half-width) holds the prong loosely
+  const std::string bodies = fmt::format(R"(    <body name="receptacle" mocap="true" pos="0.5 0.15 0">
 {receptacle}      <site name="socket" pos="0 0 0" size="0.004" rgba="1 1 0 0.5" group="2"/>
     </body>
     <body name="dock" mocap="true" pos="0.5 -0.15 0">
@@ -44,17 +39,12 @@ std::string plug_xml(const PlugConfig& c) {
       <geom name="handle" type="box" size="{hh} {hh} {hz}" material="white" mass="0.04" condim="4"/>
       <geom name="prong" type="box" pos="0 0 -{pz2}" size="{ph} {ph} {pz}" material="red" mass="0.01" condim="4" friction="0.3 0.005 0.0001"/>
     </body>
-  </worldbody>
-  <actuator>
-{act}  </actuator>
-</mujoco>
 )",
-                     fmt::arg("room", room_xml()), fmt::arg("cameras", side_cameras_xml() + overview_camera_xml()),
-                     fmt::arg("overview", overview_camera_xml()), fmt::arg("common", scene_common_xml(std::max(640, c.camera_size), std::max(640, c.camera_size))),
-                     fmt::arg("arm", panda_body_xml(Tool::kGripper, {0, 0, 0})), fmt::arg("receptacle", receptacle),
-                     fmt::arg("dock", dock), fmt::arg("hh", c.handle_half), fmt::arg("hz", kHandleHalfZ),
-                     fmt::arg("pz2", kHandleHalfZ + kProngHalfZ), fmt::arg("ph", c.prong_half), fmt::arg("pz", kProngHalfZ),
-                     fmt::arg("act", panda_actuator_xml(Tool::kGripper)));
+                                         fmt::arg("receptacle", walled_hole(c.socket_half, 0.03, kWall, "blue")),
+                                         fmt::arg("dock", walled_hole(0.014, 0.012, kDockWall, "dark")), fmt::arg("hh", c.handle_half),
+                                         fmt::arg("hz", kHandleHalfZ), fmt::arg("pz2", kHandleHalfZ + kProngHalfZ),
+                                         fmt::arg("ph", c.prong_half), fmt::arg("pz", kProngHalfZ));
+  return arm_scene_xml("plug", Tool::kGripper, c.camera_size, side_cameras_xml() + overview_camera_xml(), bodies);
 }
 
 PlugEnv::PlugEnv(PlugConfig config)

@@ -45,30 +45,21 @@ std::vector<TEdge> t_outline() {
 double t_distance(const Eigen::Vector2d& p) { return std::min(rect_distance(kBar, p), rect_distance(kStem, p)); }
 
 std::string push_xml(const PushConfig& c) {
-  return fmt::format(R"(<mujoco model="push">{common}
-  <worldbody>
-{room}
-    <camera name="top" pos="1.0 0 0.95" xyaxes="0 1 0 -0.89 0 0.45" fovy="40"/>
-{overview}
-    {arm}
-    <body name="goal" pos="{gx} {gy} 0.0005" euler="0 0 {gyaw}">
+  const std::string block = fmt::format(R"(    <body name="goal" pos="{gx} {gy} 0.0005" euler="0 0 {gyaw}">
 {goal}    </body>
     <body name="tblock" pos="0 0 {z}">
       <joint name="block_x" type="slide" axis="1 0 0" damping="4" frictionloss="0.4" armature="0.05"/>
       <joint name="block_y" type="slide" axis="0 1 0" damping="4" frictionloss="0.4" armature="0.05"/>
       <joint name="block_yaw" type="hinge" axis="0 0 1" damping="0.05" frictionloss="0.01" armature="0.001"/>
 {block}    </body>
-  </worldbody>
-  <actuator>
-{act}  </actuator>
-</mujoco>
 )",
-                     fmt::arg("room", room_xml()), fmt::arg("cameras", side_cameras_xml() + overview_camera_xml()),
-                     fmt::arg("overview", overview_camera_xml()), fmt::arg("common", scene_common_xml(std::max(640, c.camera_size), std::max(640, c.camera_size))),
-                     fmt::arg("arm", panda_body_xml(Tool::kStick, {0, 0, 0})), fmt::arg("gx", c.goal.x()),
-                     fmt::arg("gy", c.goal.y()), fmt::arg("gyaw", c.goal.z()), fmt::arg("goal", t_geoms("goal", false, -kHalfZ + 0.0005)),
-                     fmt::arg("z", kHalfZ + 0.001), fmt::arg("block", t_geoms("blue", true, 0)),
-                     fmt::arg("act", panda_actuator_xml(Tool::kStick)));
+                                        fmt::arg("gx", c.goal.x()), fmt::arg("gy", c.goal.y()), fmt::arg("gyaw", c.goal.z()),
+                                        fmt::arg("goal", t_geoms("goal", false, -kHalfZ + 0.0005)), fmt::arg("z", kHalfZ + 0.001),
+                                        fmt::arg("block", t_geoms("blue", true, 0)));
+  const std::string cameras =
+      R"(    <camera name="top" pos="1.0 0 0.95" xyaxes="0 1 0 -0.89 0 0.45" fovy="40"/>
+)" + overview_camera_xml();
+  return arm_scene_xml("push", Tool::kStick, c.camera_size, cameras, block);
 }
 
 PushEnv::PushEnv(PushConfig config)

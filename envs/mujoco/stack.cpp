@@ -8,12 +8,7 @@
 namespace dd::mj {
 
 std::string stack_xml(const StackConfig& c) {
-  return fmt::format(R"(<mujoco model="stack">{common}
-  <worldbody>
-{room}
-{cameras}
-    {arm}
-    <body name="red" pos="0.5 0 {rh}">
+  const std::string cubes = fmt::format(R"(    <body name="red" pos="0.5 0 {rh}">
       <freejoint name="red"/>
       <geom type="box" size="{rh} {rh} {rh}" material="red" mass="0.05" condim="4"/>
     </body>
@@ -21,15 +16,9 @@ std::string stack_xml(const StackConfig& c) {
       <freejoint name="green"/>
       <geom type="box" size="{gh} {gh} {gh}" material="green" mass="0.3" condim="4"/>
     </body>
-  </worldbody>
-  <actuator>
-{act}  </actuator>
-</mujoco>
 )",
-                     fmt::arg("room", room_xml()), fmt::arg("cameras", side_cameras_xml() + overview_camera_xml()),
-                     fmt::arg("overview", overview_camera_xml()), fmt::arg("common", scene_common_xml(std::max(640, c.camera_size), std::max(640, c.camera_size))),
-                     fmt::arg("arm", panda_body_xml(Tool::kGripper, {0, 0, 0})), fmt::arg("rh", c.red_half),
-                     fmt::arg("gh", c.green_half), fmt::arg("act", panda_actuator_xml(Tool::kGripper)));
+                                        fmt::arg("rh", c.red_half), fmt::arg("gh", c.green_half));
+  return arm_scene_xml("stack", Tool::kGripper, c.camera_size, side_cameras_xml() + overview_camera_xml(), cubes);
 }
 
 StackEnv::StackEnv(StackConfig config)
