@@ -6,6 +6,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstring>
+#include <functional>
 #include <random>
 
 #include "core/config.h"
@@ -41,6 +42,50 @@ uint64_t state_hash(const Env& env) {
     h = (h ^ bits) * 1099511628211ull;
   }
   return h;
+}
+
+// How many of four episodes (seeds first_seed..) the expert still finishes after a robot wandered
+// for `wander` steps of `random_action`, with `budget` steps left to it.
+int recoveries(Env& env, Expert& expert, uint64_t first_seed, int wander, int budget,
+               const std::function<Vec(std::mt19937&)>& random_action) {
+  int ok = 0;
+  for (int s = 0; s < 4; ++s) {
+    env.reset(first_seed + s);
+    std::mt19937 rng(s);
+    for (int t = 0; t < wander; ++t) env.step(random_action(rng));
+    expert.reset(first_seed + s);
+    env.set_time_limit(env.steps() + budget);
+    StepResult r;
+    while (!r.done) r = env.step(expert.act(env));
+    ok += env.success();
+  }
+  return ok;
+}
+
+// Random reachable TCP poses with the gripper toggling.
+Vec random_pose(std::mt19937& rng) {
+  std::uniform_real_distribution<float> u(-1, 1);
+  Vec a(10);
+  a.head<3>() << 0.5f + 0.1f * u(rng), 0.15f * u(rng), 0.12f + 0.05f * u(rng);
+  a.segment<6>(3) = rot6d(tool_down(0.4 * u(rng))).cast<float>();
+  a[9] = u(rng) > 0 ? 1.f : 0.f;
+  return a;
+}
+
+// Two copies of a task stepped by two copies of its expert end in the same state.
+template <typename TaskEnv, typename TaskExpert>
+void expect_same_trajectory(uint64_t seed, int steps) {
+  TaskEnv a, b;
+  TaskExpert ea, eb;
+  a.reset(seed);
+  b.reset(seed);
+  ea.reset(seed);
+  eb.reset(seed);
+  for (int t = 0; t < steps; ++t) {
+    a.step(ea.act(a));
+    b.step(eb.act(b));
+  }
+  EXPECT_EQ(state_hash(a), state_hash(b));
 }
 
 }  // namespace
@@ -93,40 +138,17 @@ TEST(Mujoco, StackExpertSucceedsOverSeededEpisodes) {
 TEST(Mujoco, StackExpertTakesOverMidEpisode) {
   StackEnv env;
   StackExpert expert;
-  int ok = 0;
-  for (int s = 0; s < 4; ++s) {
-    env.reset(300 + s);
-    // a wandering robot first: random reachable poses with the gripper toggling
-    std::mt19937 rng(s);
-    std::uniform_real_distribution<float> u(-1, 1);
-    for (int t = 0; t < 30; ++t) {
-      Vec a(10);
-      a.head<3>() << 0.5f + 0.1f * u(rng), 0.15f * u(rng), 0.12f + 0.05f * u(rng);
-      a.segment<6>(3) = rot6d(tool_down(0.4 * u(rng))).cast<float>();
-      a[9] = u(rng) > 0 ? 1.f : 0.f;
-      env.step(a);
-    }
-    expert.reset(300 + s);
-    env.set_time_limit(env.steps() + 250);
-    StepResult r;
-    while (!r.done) r = env.step(expert.act(env));
-    ok += env.success();
-  }
-  EXPECT_GE(ok, 3);
+  EXPECT_GE(recoveries(env, expert, 300, 30, 250, random_pose), 3);
 }
 
-TEST(Mujoco, StackIsDeterministic) {
-  StackEnv a, b;
-  StackExpert ea, eb;
+TEST(Mujoco, StackIsDeterministic) { expect_same_trajectory<StackEnv, StackExpert>(7, 60); }
+
+TEST(Mujoco, StackContinuesFromARestoredState) {
+  StackEnv a;
+  StackExpert ea;
   a.reset(7);
-  b.reset(7);
   ea.reset(7);
-  eb.reset(7);
-  for (int t = 0; t < 60; ++t) {
-    a.step(ea.act(a));
-    b.step(eb.act(b));
-  }
-  EXPECT_EQ(state_hash(a), state_hash(b));
+  for (int t = 0; t < 60; ++t) a.step(ea.act(a));
   // restoring a saved state continues the same trajectory (to rounding: MuJoCo recomputes derived
   // quantities on restore)
   const auto saved = a.save_state();
@@ -198,40 +220,10 @@ TEST(Mujoco, PlugExpertInsertsOverSeededEpisodes) {
 TEST(Mujoco, PlugExpertTakesOverMidEpisode) {
   PlugEnv env;
   PlugExpert expert;
-  int ok = 0;
-  for (int s = 0; s < 4; ++s) {
-    env.reset(500 + s);
-    std::mt19937 rng(s);
-    std::uniform_real_distribution<float> u(-1, 1);
-    for (int t = 0; t < 30; ++t) {  // a wandering robot first
-      Vec a(10);
-      a.head<3>() << 0.5f + 0.1f * u(rng), 0.15f * u(rng), 0.12f + 0.05f * u(rng);
-      a.segment<6>(3) = rot6d(tool_down(0.4 * u(rng))).cast<float>();
-      a[9] = u(rng) > 0 ? 1.f : 0.f;
-      env.step(a);
-    }
-    expert.reset(500 + s);
-    env.set_time_limit(env.steps() + 500);
-    StepResult r;
-    while (!r.done) r = env.step(expert.act(env));
-    ok += env.success();
-  }
-  EXPECT_GE(ok, 3);
+  EXPECT_GE(recoveries(env, expert, 500, 30, 500, random_pose), 3);
 }
 
-TEST(Mujoco, PlugIsDeterministic) {
-  PlugEnv a, b;
-  PlugExpert ea, eb;
-  a.reset(9);
-  b.reset(9);
-  ea.reset(9);
-  eb.reset(9);
-  for (int t = 0; t < 80; ++t) {
-    a.step(ea.act(a));
-    b.step(eb.act(b));
-  }
-  EXPECT_EQ(state_hash(a), state_hash(b));
-}
+TEST(Mujoco, PlugIsDeterministic) { expect_same_trajectory<PlugEnv, PlugExpert>(9, 80); }
 
 TEST(Mujoco, PushModelLoadsWithTheDeclaredSizes) {
   PushEnv env;
@@ -281,23 +273,13 @@ TEST(Mujoco, PushExpertsTurnTheBlockTheirOwnWayHome) {
 TEST(Mujoco, PushExpertTakesOverMidEpisode) {
   PushEnv env;
   PushExpert expert(PushExpert::Mode::kCounterClockwise);
-  int ok = 0;
-  for (int s = 0; s < 4; ++s) {
-    env.reset(600 + s);
-    std::mt19937 rng(s);
+  const auto jiggle = [](std::mt19937& rng) {  // random joint jiggles
     std::uniform_real_distribution<float> u(-1, 1);
-    for (int t = 0; t < 25; ++t) {  // random joint jiggles first
-      Vec a(7);
-      for (int j = 0; j < 7; ++j) a[j] = 0.05f * u(rng);
-      env.step(a);
-    }
-    expert.reset(600 + s);
-    env.set_time_limit(env.steps() + 250);
-    StepResult r;
-    while (!r.done) r = env.step(expert.act(env));
-    ok += env.success();
-  }
-  EXPECT_GE(ok, 3);
+    Vec a(7);
+    for (int j = 0; j < 7; ++j) a[j] = 0.05f * u(rng);
+    return a;
+  };
+  EXPECT_GE(recoveries(env, expert, 600, 25, 250, jiggle), 3);
 }
 
 TEST(Mujoco, MixedPushExpertUsesBothSenses) {

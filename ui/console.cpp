@@ -460,7 +460,6 @@ void handle_event(Console::State& s, const SessionEvent& e) {
       if (s.takeover_steps >= 0) s.request_shot("takeover");
       s.takeover_steps = -1;
       break;
-    case EventKind::kUpdateProgress: s.progress = static_cast<float>(e.progress); break;
     case EventKind::kUpdateFinished:
       s.last_report = e.report;
       s.field_valid = false;

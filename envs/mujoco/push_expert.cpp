@@ -32,7 +32,6 @@ std::string PushExpert::name() const {
 }
 
 void PushExpert::reset(uint64_t seed) {
-  seed_ = seed;
   current_ = mode_;
   if (mode_ == Mode::kMixed) {
     std::mt19937_64 rng(seed * 7919 + 3);
@@ -40,7 +39,7 @@ void PushExpert::reset(uint64_t seed) {
   }
   phase_ = Phase::kChoose;
   pushed_ = 0;
-  lifting_ = have_target_ = false;
+  have_target_ = false;
 }
 
 void PushExpert::choose_contact(const PushEnv& env) {

@@ -33,12 +33,10 @@ class PushExpert : public Expert {
   void choose_contact(const PushEnv& env);
 
   Mode mode_, current_;
-  uint64_t seed_ = 0;
   enum class Phase { kChoose, kApproach, kPush } phase_ = Phase::kChoose;
   Eigen::Vector2d contact_{0, 0}, normal_{0, 0};  // block frame
   int pushed_ = 0;
   double stroke_turn_ = 0;  // the yaw error when the stroke began
-  bool lifting_ = false;
   Eigen::Vector3d target_{0, 0, 0};
   bool have_target_ = false;
 };
