@@ -812,11 +812,16 @@ void draw_mujoco(Console::State& s, ImVec2 origin, float side) {
   dl->AddText(ImVec2(origin.x + 14, origin.y + side - 27), IM_COL32(220, 224, 232, 230), cam);
 }
 
-void scene_view(Console::State& s, ImVec2 pos, ImVec2 size) {
+// A fixed panel of the console's layout (closed with ImGui::End()).
+void begin_panel(const char* title, ImVec2 pos, ImVec2 size, ImGuiWindowFlags extra = 0) {
   ImGui::SetNextWindowPos(pos);
   ImGui::SetNextWindowSize(size);
-  ImGui::Begin("Scene", nullptr, ImGuiWindowFlags_NoMove | ImGuiWindowFlags_NoResize | ImGuiWindowFlags_NoCollapse |
-                                      ImGuiWindowFlags_NoSavedSettings | ImGuiWindowFlags_NoScrollbar);
+  ImGui::Begin(title, nullptr,
+               ImGuiWindowFlags_NoMove | ImGuiWindowFlags_NoResize | ImGuiWindowFlags_NoCollapse | ImGuiWindowFlags_NoSavedSettings | extra);
+}
+
+void scene_view(Console::State& s, ImVec2 pos, ImVec2 size) {
+  begin_panel("Scene", pos, size, ImGuiWindowFlags_NoScrollbar);
   const ImVec2 avail = ImGui::GetContentRegionAvail();
   const float side = std::min(avail.x, avail.y - 58);  // room for the legend below
   const ImVec2 origin(ImGui::GetCursorScreenPos().x + (avail.x - side) * 0.5f, ImGui::GetCursorScreenPos().y);
@@ -913,11 +918,7 @@ void scene_view(Console::State& s, ImVec2 pos, ImVec2 size) {
 
 // Expected loss (or the method's score) per decision on a log axis, with the threshold and violations.
 void loss_plot(Console::State& s, ImVec2 pos, ImVec2 size) {
-  ImGui::SetNextWindowPos(pos);
-  ImGui::SetNextWindowSize(size);
-  const std::string title = s.o.method == "diff" ? "Expected diffusion loss per decision" : "Query score per decision";
-  ImGui::Begin((title + "###plot").c_str(), nullptr,
-               ImGuiWindowFlags_NoMove | ImGuiWindowFlags_NoResize | ImGuiWindowFlags_NoCollapse | ImGuiWindowFlags_NoSavedSettings);
+  begin_panel(s.o.method == "diff" ? "Expected diffusion loss per decision###plot" : "Query score per decision###plot", pos, size);
   const Decision* last = s.decisions.empty() ? nullptr : &s.decisions.back();
   if (last) {
     ImGui::TextColored(ImVec4(0.55f, 0.75f, 1.f, 1.f), "score %.4g", last->score);
@@ -1003,10 +1004,7 @@ void loss_plot(Console::State& s, ImVec2 pos, ImVec2 size) {
 
 // One row per episode, one cell per step, coloured by who was in control.
 void timeline_view(Console::State& s, ImVec2 pos, ImVec2 size) {
-  ImGui::SetNextWindowPos(pos);
-  ImGui::SetNextWindowSize(size);
-  ImGui::Begin("Control per episode", nullptr,
-               ImGuiWindowFlags_NoMove | ImGuiWindowFlags_NoResize | ImGuiWindowFlags_NoCollapse | ImGuiWindowFlags_NoSavedSettings);
+  begin_panel("Control per episode", pos, size);
   ImDrawList* dl = ImGui::GetWindowDrawList();
   const ImVec2 avail = ImGui::GetContentRegionAvail();
   const ImVec2 p0 = ImGui::GetCursorScreenPos();
@@ -1053,10 +1051,7 @@ void stat_row(const char* label, const std::string& value) {
 }
 
 void session_view(Console::State& s, ImVec2 pos, ImVec2 size) {
-  ImGui::SetNextWindowPos(pos);
-  ImGui::SetNextWindowSize(size);
-  ImGui::Begin("Session", nullptr,
-               ImGuiWindowFlags_NoMove | ImGuiWindowFlags_NoResize | ImGuiWindowFlags_NoCollapse | ImGuiWindowFlags_NoSavedSettings);
+  begin_panel("Session", pos, size);
   const DaggerSession& se = *s.session;
   const DaggerConfig& d = s.o.config.dagger;
   ImGui::Columns(2, nullptr, false);

@@ -24,14 +24,9 @@ namespace {
 
 namespace fs = std::filesystem;
 
-// The framebuffer currently bound, as a top-down image.
+// The framebuffer currently bound, as a top-down image (alpha forced opaque).
 Image grab(int width, int height) {
-  Image img{width, height, std::vector<uint8_t>(static_cast<size_t>(width) * height * 4)};
-  std::vector<uint8_t> up(img.rgba.size());
-  glPixelStorei(GL_PACK_ALIGNMENT, 1);
-  glReadPixels(0, 0, width, height, GL_RGBA, GL_UNSIGNED_BYTE, up.data());
-  const size_t row = static_cast<size_t>(width) * 4;
-  for (int y = 0; y < height; ++y) std::copy_n(&up[(height - 1 - y) * row], row, &img.rgba[y * row]);
+  Image img{width, height, read_framebuffer_rgba(width, height)};
   for (size_t i = 3; i < img.rgba.size(); i += 4) img.rgba[i] = 255;
   return img;
 }

@@ -99,22 +99,26 @@ void HeadlessGL::make_current() {
   glBindFramebuffer(GL_FRAMEBUFFER, fbo_);
 }
 
-std::vector<uint8_t> HeadlessGL::read_rgba() const {
-  std::vector<uint8_t> pixels(static_cast<size_t>(width_) * height_ * 4);
-  glBindFramebuffer(GL_READ_FRAMEBUFFER, fbo_);
+std::vector<uint8_t> read_framebuffer_rgba(int width, int height) {
+  std::vector<uint8_t> pixels(static_cast<size_t>(width) * height * 4);
   glPixelStorei(GL_PACK_ALIGNMENT, 1);
-  glReadPixels(0, 0, width_, height_, GL_RGBA, GL_UNSIGNED_BYTE, pixels.data());
+  glReadPixels(0, 0, width, height, GL_RGBA, GL_UNSIGNED_BYTE, pixels.data());
   // GL rows run bottom-up; flip to the usual top-down order.
-  const size_t row = static_cast<size_t>(width_) * 4;
+  const size_t row = static_cast<size_t>(width) * 4;
   std::vector<uint8_t> tmp(row);
-  for (int y = 0; y < height_ / 2; ++y) {
+  for (int y = 0; y < height / 2; ++y) {
     uint8_t* a = pixels.data() + y * row;
-    uint8_t* b = pixels.data() + (height_ - 1 - y) * row;
+    uint8_t* b = pixels.data() + (height - 1 - y) * row;
     std::memcpy(tmp.data(), a, row);
     std::memcpy(a, b, row);
     std::memcpy(b, tmp.data(), row);
   }
   return pixels;
+}
+
+std::vector<uint8_t> HeadlessGL::read_rgba() const {
+  glBindFramebuffer(GL_READ_FRAMEBUFFER, fbo_);
+  return read_framebuffer_rgba(width_, height_);
 }
 
 std::string HeadlessGL::renderer() const {

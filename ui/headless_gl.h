@@ -9,6 +9,9 @@
 
 namespace dd::ui {
 
+/// The current context's read framebuffer as RGBA8 rows, top row first (width * height * 4 bytes).
+std::vector<uint8_t> read_framebuffer_rgba(int width, int height);
+
 class HeadlessGL {
  public:
   /// Creates the context and a width x height RGBA8 framebuffer with depth, and makes both current.

@@ -258,17 +258,4 @@ void Scene2d::render() {
   glViewport(viewport[0], viewport[1], viewport[2], viewport[3]);
 }
 
-std::vector<uint8_t> Scene2d::read_rgba() const {
-  GLint previous = 0;
-  glGetIntegerv(GL_FRAMEBUFFER_BINDING, &previous);
-  glBindFramebuffer(GL_FRAMEBUFFER, fbo_);
-  std::vector<uint8_t> up(static_cast<size_t>(width_) * height_ * 4), out(up.size());
-  glPixelStorei(GL_PACK_ALIGNMENT, 1);
-  glReadPixels(0, 0, width_, height_, GL_RGBA, GL_UNSIGNED_BYTE, up.data());
-  glBindFramebuffer(GL_FRAMEBUFFER, static_cast<GLuint>(previous));
-  const size_t row = static_cast<size_t>(width_) * 4;
-  for (int y = 0; y < height_; ++y) std::copy_n(&up[(height_ - 1 - y) * row], row, &out[y * row]);
-  return out;
-}
-
 }  // namespace dd::ui

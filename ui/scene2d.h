@@ -51,8 +51,6 @@ class Scene2d {
   unsigned texture() const { return color_; }
   /// World position of a pixel of the texture (x right, y down from the top-left corner).
   Eigen::Vector2d pixel_to_world(double px, double py) const;
-  /// RGBA8 of the last render, top row first.
-  std::vector<uint8_t> read_rgba() const;
 
  private:
   Scene2d() = default;
