@@ -9,7 +9,7 @@ namespace dd::app {
 Command add_dagger(CLI::App& app) {
   auto* cmd = app.add_subcommand("dagger", "One interactive-learning run, headless, with the scripted expert");
   struct Opts {
-    std::string task = "nav2d", config, method = "diff", out, expert = "mixed";
+    std::string task = "nav2d", config, method = "diff", out, expert;
     uint64_t seed = 0;
   };
   auto o = std::make_shared<Opts>();
@@ -17,7 +17,7 @@ Command add_dagger(CLI::App& app) {
   cmd->add_option("--method", o->method, "query rule")->capture_default_str()->check(CLI::IsMember({"diff", "ensemble", "thrifty", "bc"}));
   cmd->add_option("--out", o->out, "output folder: dataset.hdf5, checkpoints/, queries.jsonl, config.json")->required();
   cmd->add_option("--config", o->config, "YAML config file overriding the task's preset");
-  cmd->add_option("--expert", o->expert, "expert mode (nav2d, push: cw, ccw, mixed)")->capture_default_str();
+  cmd->add_option("--expert", o->expert, "expert mode (nav2d, push: cw, ccw, mixed, alternate; default: the preset's)");
   cmd->add_option("--seed", o->seed, "random seed")->capture_default_str();
   return [o] {
     ExperimentConfig c = resolve_config(o->task, o->config);
@@ -25,7 +25,7 @@ Command add_dagger(CLI::App& app) {
     DaggerRunOptions ro;
     ro.method = o->method;
     ro.out = o->out;
-    ro.expert_mode = o->expert;
+    if (!o->expert.empty()) c.expert = o->expert;
     const DaggerRunResult r = run_dagger(c, ro);
     fmt::print("{} on {}: {} episodes, {} expert demonstrations ({} interventions: {} queries, {} time-outs), {} updates\n"
                "wall-clock: training {:.1f} s, threshold setting {:.1f} s, inference {:.1f} s\n"

@@ -26,6 +26,8 @@ Command add_gui(CLI::App& app);
 Command add_render(CLI::App& app);
 /// `collect`: expert demonstrations into a data set.
 Command add_collect(CLI::App& app);
+/// `train`: behaviour cloning on demonstrations, with rollouts and a learning curve.
+Command add_train(CLI::App& app);
 /// `inspect`: print a checkpoint's config, parameter count and normalisers.
 Command add_inspect(CLI::App& app);
 

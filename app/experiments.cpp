@@ -14,7 +14,9 @@
 #include "core/evaluation.h"
 #include "core/event_log.h"
 #include "core/progress.h"
+#include "core/policy.h"
 #include "core/session.h"
+#include "core/trainer.h"
 #include "envs/registry.h"
 #include "ui/plot.h"
 
@@ -103,11 +105,13 @@ DaggerRunResult run_dagger(const ExperimentConfig& config, const DaggerRunOption
   write_text(o.out + "/config.json", to_json_text(config) + "\n");
 
   auto env = make_env(config.task);
-  auto expert = make_expert(config.task, o.expert_mode);
+  auto expert = make_expert(config.task, config.expert);
   auto method = make_method(o.method, config.policy, config.method, config.dagger.seed);
   DatasetWriter writer(result.dataset, env_args(config.task));
   TrainConfig train = config.train;
-  if (!method->gated()) train.steps *= bc_budget_factor(config.dagger);
+  // Fine-tuning updates add up their steps: BC, trained once, gets as many. From-scratch updates train
+  // by the epoch rule on what they have, and so does BC on its N_f demonstrations.
+  if (!method->gated() && !train.from_scratch) train.steps *= bc_budget_factor(config.dagger);
   DaggerSession session(*env, *expert, *method, config.dagger, train, &writer);
   EventLog log(o.out + "/queries.jsonl");
   session.add_observer([&log](const SessionEvent& e) { log(e); });
@@ -156,6 +160,86 @@ DaggerRunResult run_dagger(const ExperimentConfig& config, const DaggerRunOption
   return result;
 }
 
+TrainRunResult run_train(const ExperimentConfig& config, const TrainOptions& o) {
+  config.validate();
+  if (o.out.empty()) throw Error("train: an output folder is required (--out)");
+  make_dirs(o.out);
+  TrainRunResult result;
+  std::vector<Episode> demos;
+  if (!o.data.empty()) {
+    DatasetInfo info;
+    for (const RecordedEpisode& e : read_dataset(o.data, &info)) {
+      if (!e.success) continue;  // failed episodes stay in the file, flagged, and out of training
+      if (o.demos > 0 && static_cast<int>(demos.size()) >= o.demos) break;
+      demos.push_back(e.expert_steps());
+    }
+    if (info.obs_dim != config.policy.obs_dim || info.action_dim != config.policy.action_dim)
+      throw Error(fmt::format("{}: observations {} and actions {} per step, but preset '{}' expects {} and {}", o.data, info.obs_dim,
+                              info.action_dim, config.preset, config.policy.obs_dim, config.policy.action_dim));
+    if (o.demos > 0 && static_cast<int>(demos.size()) < o.demos)
+      throw Error(fmt::format("{}: holds {} successful episodes, fewer than --demos {}", o.data, demos.size(), o.demos));
+  } else {
+    if (o.demos <= 0) throw Error("train: without --data, --demos N says how many demonstrations to collect");
+    demos = collect_demos(config.task, config.expert, o.demos, config.dagger.seed);
+  }
+  if (demos.empty()) throw Error("train: no successful expert episodes to train on");
+  result.demos = static_cast<int>(demos.size());
+  write_text(o.out + "/config.json", to_json_text(config) + "\n");
+
+  DiffusionPolicy policy(config.policy, config.train.seed);
+  const ChunkDataset data = ChunkDataset::from_episodes(demos, config.policy.horizon);
+  result.pairs = data.size();
+  auto env = make_env(config.task);
+  auto actor = act_with(policy);
+  const DaggerConfig& d = config.dagger;
+  std::ofstream curve_csv(o.out + "/curve.csv");
+  curve_csv << "step,success_rate,episodes,demos\n";
+  auto evaluate = [&](int step) {
+    const auto t = std::chrono::steady_clock::now();
+    std::vector<RolloutResult> results;
+    {
+      ProgressBar bar(fmt::format("rollouts after {} steps", step), "success");
+      results = evaluate_rollouts(*env, *actor, o.eval_episodes, RolloutSpec::of(d), o.eval_seed, o.quiet ? ProgressFn{} : bar.fn());
+    }
+    result.eval_s += std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count();
+    result.curve.emplace_back(step, success_rate(results));
+    result.success = success_rate(results);
+    curve_csv << fmt::format("{},{:.4f},{},{}\n", step, result.success, o.eval_episodes, result.demos) << std::flush;
+    if (!o.quiet) fmt::print(stderr, "after {} steps: success {:.2f} over {} rollouts\n", step, result.success, o.eval_episodes);
+  };
+
+  std::vector<float> losses;
+  const int steps = config.train.steps_for(data.size());
+  {
+    Trainer trainer(policy, data, config.train);
+    ProgressBar bar(fmt::format("train {} on {} demonstrations ({} pairs)", config.task, result.demos, result.pairs), "loss");
+    const auto t = std::chrono::steady_clock::now();
+    for (int i = 1; i <= steps; ++i) {
+      losses.push_back(trainer.step());
+      if (!o.quiet) bar.update(i, steps, losses.back());
+      if (o.eval_episodes > 0 && o.eval_every > 0 && i % o.eval_every == 0 && i < steps) {
+        evaluate(i);
+      }
+    }
+    result.train_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count() - result.eval_s;
+  }
+  TrainStats stats;
+  stats.losses = losses;
+  result.final_loss = stats.last_mean(100);
+  policy.save(o.out + "/policy.pt");
+  std::string loss_csv = "step,loss\n";
+  for (size_t i = 0; i < losses.size(); ++i) loss_csv += fmt::format("{},{:.6g}\n", i + 1, losses[i]);
+  write_text(o.out + "/losses.csv", loss_csv);
+  if (o.eval_episodes > 0) evaluate(steps);
+  const nlohmann::json summary{{"task", config.task}, {"preset", config.preset}, {"expert", config.expert}, {"demos", result.demos},
+                               {"pairs", result.pairs}, {"steps", steps}, {"batch_size", config.train.batch_size},
+                               {"train_s", result.train_s}, {"eval_s", result.eval_s}, {"final_loss", result.final_loss},
+                               {"episodes", o.eval_episodes}, {"success_rate", o.eval_episodes > 0 ? result.success : -1.0},
+                               {"eval_seed", o.eval_seed}};
+  write_text(o.out + "/summary.json", summary.dump(2) + "\n");
+  return result;
+}
+
 void EvalOptions::apply_quick(ExperimentConfig& c) {
   quick = true;
   episodes = 8;
@@ -171,17 +255,43 @@ void EvalOptions::apply_quick(ExperimentConfig& c) {
   c.rq1_demos = 2;
 }
 
+namespace {
+
+// Mean and standard deviation over the finite values (NaN when there are none).
+std::pair<double, double> finite_mean_std(const std::vector<double>& v) {
+  std::vector<double> f;
+  for (double x : v)
+    if (std::isfinite(x)) f.push_back(x);
+  return mean_std(f);
+}
+
+// "0.83", "0.83 +- 0.04" over seeds, or "n/a" where the value is undefined in every seed.
+std::string pm(const std::vector<double>& v) {
+  const auto [m, s] = finite_mean_std(v);
+  if (!std::isfinite(m)) return "n/a";
+  return v.size() > 1 ? fmt::format("{:.2f} +- {:.2f}", m, s) : fmt::format("{:.2f}", m);
+}
+
+std::string csv_num(double v) { return std::isfinite(v) ? fmt::format("{:.3f}", v) : "nan"; }
+
+}  // namespace
+
 void run_eval(const ExperimentConfig& config, const EvalOptions& o) {
   config.validate();
   make_dirs(o.out);
   write_text(o.out + "/config.json", to_json_text(config) + "\n");
   const auto t_start = std::chrono::steady_clock::now();
   struct Row {
-    std::vector<double> tpr, tnr, f1, acc, rq1_success, success, train, threshold, inference;
+    std::vector<double> tpr, tnr, f1, acc, rq1_success, success;
+    std::vector<double> train, threshold, inference, risk_data;        // mean over a run's iterations
+    std::vector<double> last_train, last_threshold, last_inference;    // the run's final iteration
+    int tp = 0, fp = 0, tn = 0, fn = 0;                                // summed over seeds
   };
   std::map<std::string, Row> rows;
   auto env = make_env(config.task);
   const DaggerConfig& d = config.dagger;
+  const RolloutSpec spec = RolloutSpec::of(d);
+  const bool bc_scaled = !config.train.from_scratch;
 
   for (int s = 0; s < o.seeds; ++s) {
     ExperimentConfig c = config;
@@ -192,26 +302,33 @@ void run_eval(const ExperimentConfig& config, const EvalOptions& o) {
       // RQ1: a policy trained on N_D demonstrations, rolled out without intervention.
       if (name != "bc") {
         auto m = make_method(name, c.policy, c.method, c.dagger.seed);
-        const auto demos = collect_demos(c.task, "mixed", c.rq1_demos, c.dagger.seed);
+        const auto demos = collect_demos(c.task, c.expert, c.rq1_demos, c.dagger.seed);
         {
           ProgressBar bar(fmt::format("[seed {}] RQ1 {:8} train", s, name), "loss");
           m->update(demos, {}, c.train, bar.fn());
         }
-        if (name == "thrifty") {  // the critic learns from robot rollouts too
+        double risk_data_s = 0;
+        if (name == "thrifty") {
+          // The critic learns from robot rollouts too: roll out, then refit the critic alone (the
+          // policies keep the budget every method gets). Those rollouts are Thrifty's extra cost.
           std::vector<RecordedEpisode> robot;
-          evaluate_rollouts(*env, *m, std::max(5, o.episodes / 5), d.time_limit, d.patience, d.action_steps, eval_seed + 500, {}, &robot);
-          m->update(demos, robot, c.train);
+          const auto t = std::chrono::steady_clock::now();
+          evaluate_rollouts(*env, *m, std::max(5, o.episodes / 5), spec, eval_seed + 500, {}, &robot);
+          risk_data_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count();
+          risk_data_s += m->refit_risk(demos, robot);
         }
+        row.risk_data.push_back(risk_data_s);
         std::vector<RolloutResult> results;
         {
           ProgressBar bar(fmt::format("[seed {}] RQ1 {:8} rollouts", s, name), "success");
-          results = evaluate_rollouts(*env, *m, o.episodes, d.time_limit, d.patience, d.action_steps, eval_seed, bar.fn());
+          results = evaluate_rollouts(*env, *m, o.episodes, spec, eval_seed, bar.fn());
         }
         const FailurePrediction p = failure_prediction(results);
         row.tpr.push_back(p.tpr);
         row.tnr.push_back(p.tnr);
         row.f1.push_back(p.f1);
         row.acc.push_back(p.accuracy);
+        row.tp += p.tp, row.fp += p.fp, row.tn += p.tn, row.fn += p.fn;
         row.rq1_success.push_back(success_rate(results));
       }
       // RQ2 and RQ3: interactive learning to N_f, then rollouts of the final policy.
@@ -226,34 +343,43 @@ void run_eval(const ExperimentConfig& config, const EvalOptions& o) {
       std::vector<RolloutResult> results;
       {
         ProgressBar bar(fmt::format("[seed {}] RQ2 {:8} rollouts", s, name), "success");
-        results = evaluate_rollouts(*env, *trained, o.episodes, d.time_limit, d.patience, d.action_steps, eval_seed + 50000, bar.fn());
+        results = evaluate_rollouts(*env, *trained, o.episodes, spec, eval_seed + 50000, bar.fn());
       }
       row.success.push_back(success_rate(results));
       row.train.push_back(mean(run.iteration_train_s));
       row.threshold.push_back(mean(run.iteration_threshold_s));
       row.inference.push_back(run.iteration_inference_s.empty() ? 0.0 : mean(run.iteration_inference_s));
+      row.last_train.push_back(run.iteration_train_s.back());
+      row.last_threshold.push_back(run.iteration_threshold_s.back());
+      row.last_inference.push_back(run.iteration_inference_s.empty() ? 0.0 : run.iteration_inference_s.back());
       fmt::print(stderr, "[seed {}] {:8} success {:.2f}; {} interventions ({} queries, {} time-outs) in {} episodes\n", s, name,
                  row.success.back(), run.interventions, run.queries, run.timeouts, run.episodes);
     }
   }
 
-  // CSV files: the columns the issue names first, spreads over seeds after them.
-  std::string rq1 = "method,tpr,tnr,f1,acc,tpr_std,tnr_std,f1_std,acc_std,success_rate,seeds,episodes\n";
+  // CSV files: the columns the issue names first, spreads and counts after them. "nan": undefined
+  // (TPR with no failed rollout, TNR with no successful one).
+  std::string rq1 = "method,tpr,tnr,f1,acc,tpr_std,tnr_std,f1_std,acc_std,tp,fp,tn,fn,success_rate,seeds,episodes\n";
   std::string rq2 = "method,success_rate,n,success_rate_std,seeds\n";
-  std::string rq3 = "method,train_s,threshold_s,inference_s,train_s_std,threshold_s_std,inference_s_std,seeds\n";
+  std::string rq3 =
+      "method,train_s,threshold_s,inference_s,total_s,last_train_s,last_threshold_s,last_inference_s,last_total_s,risk_data_s,"
+      "train_s_std,threshold_s_std,inference_s_std,seeds\n";
   for (const std::string& name : o.methods) {
     const Row& r = rows[name];
     if (!r.tpr.empty()) {
-      rq1 += fmt::format("{},{:.3f},{:.3f},{:.3f},{:.3f},{:.3f},{:.3f},{:.3f},{:.3f},{:.3f},{},{}\n", name, mean_std(r.tpr).first,
-                         mean_std(r.tnr).first, mean_std(r.f1).first, mean_std(r.acc).first, mean_std(r.tpr).second,
-                         mean_std(r.tnr).second, mean_std(r.f1).second, mean_std(r.acc).second, mean(r.rq1_success), o.seeds,
-                         o.episodes);
+      rq1 += fmt::format("{},{},{},{},{},{},{},{},{},{},{},{},{},{:.3f},{},{}\n", name, csv_num(finite_mean_std(r.tpr).first),
+                         csv_num(finite_mean_std(r.tnr).first), csv_num(finite_mean_std(r.f1).first), csv_num(finite_mean_std(r.acc).first),
+                         csv_num(finite_mean_std(r.tpr).second), csv_num(finite_mean_std(r.tnr).second),
+                         csv_num(finite_mean_std(r.f1).second), csv_num(finite_mean_std(r.acc).second), r.tp, r.fp, r.tn, r.fn,
+                         mean(r.rq1_success), o.seeds, o.episodes);
     }
     rq2 += fmt::format("{},{:.3f},{},{:.3f},{}\n", name, mean_std(r.success).first, o.episodes * o.seeds, mean_std(r.success).second,
                        o.seeds);
-    rq3 += fmt::format("{},{:.3f},{:.3f},{:.3f},{:.3f},{:.3f},{:.3f},{}\n", name, mean_std(r.train).first, mean_std(r.threshold).first,
-                       mean_std(r.inference).first, mean_std(r.train).second, mean_std(r.threshold).second,
-                       mean_std(r.inference).second, o.seeds);
+    const double risk = r.risk_data.empty() ? 0.0 : mean(r.risk_data);
+    rq3 += fmt::format("{},{:.3f},{:.3f},{:.3f},{:.3f},{:.3f},{:.3f},{:.3f},{:.3f},{:.3f},{:.3f},{:.3f},{:.3f},{}\n", name, mean(r.train),
+                       mean(r.threshold), mean(r.inference), mean(r.train) + mean(r.threshold) + mean(r.inference), mean(r.last_train),
+                       mean(r.last_threshold), mean(r.last_inference), mean(r.last_train) + mean(r.last_threshold) + mean(r.last_inference),
+                       risk, mean_std(r.train).second, mean_std(r.threshold).second, mean_std(r.inference).second, o.seeds);
   }
   write_text(o.out + "/rq1.csv", rq1);
   write_text(o.out + "/rq2.csv", rq2);
@@ -279,50 +405,66 @@ void run_eval(const ExperimentConfig& config, const EvalOptions& o) {
       o.seeds > 1 ? fmt::format("task {} (preset {}): mean +- std over {} seeds, {} rollouts each", config.task, config.preset, o.seeds, o.episodes)
                   : fmt::format("task {} (preset {}): one seed, {} rollouts each", config.task, config.preset, o.episodes);
   ui::write_png(o.out + "/rq1_failure_prediction.png",
-                ui::hstack({bars("RQ1: F1 of queries vs failures", "F1", [](const Row& r) { return mean_std(r.f1); }, true),
-                            bars("RQ1: accuracy", "accuracy", [](const Row& r) { return mean_std(r.acc); }, true)},
+                ui::hstack({bars("RQ1: F1 of queries vs failures", "F1", [](const Row& r) { return finite_mean_std(r.f1); }, true),
+                            bars("RQ1: accuracy", "accuracy", [](const Row& r) { return finite_mean_std(r.acc); }, true)},
                            caption));
   ui::write_png(o.out + "/rq2_success.png",
                 ui::hstack({bars(fmt::format("RQ2: success after N_f = {}", d.final_demos), "success rate",
                                  [](const Row& r) { return mean_std(r.success); }, false)},
                            caption));
   ui::write_png(o.out + "/rq3_wallclock.png",
-                ui::hstack({bars("RQ3: training per iteration", "seconds", [](const Row& r) { return mean_std(r.train); }, false),
-                            bars("RQ3: threshold setting", "seconds", [](const Row& r) { return mean_std(r.threshold); }, false),
-                            bars("RQ3: inference per iteration", "seconds", [](const Row& r) { return mean_std(r.inference); }, false)},
+                ui::hstack({bars("RQ3: training, final iteration", "seconds", [](const Row& r) { return mean_std(r.last_train); }, false),
+                            bars("RQ3: threshold setting, final", "seconds", [](const Row& r) { return mean_std(r.last_threshold); }, false),
+                            bars("RQ3: inference, final iteration", "seconds", [](const Row& r) { return mean_std(r.last_inference); }, false)},
                            caption));
 
   // Report.
   const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count();
-  std::string md = fmt::format("# Evaluation on {} (preset {})\n\n{} seed(s), {} rollouts per measurement{}. "
-                               "Schedule: N_i {}, N_f {}, N_d {}, alpha {}, K {}, T_L {}, T_p {}, T_a {}; {} training steps per update.\n\n",
-                               config.task, config.preset, o.seeds, o.episodes, o.quick ? " (quick run: tiny budgets and 3-member ensembles, a smoke test; read with care)" : "",
-                               d.initial_demos, d.final_demos, d.demos_per_update, config.method.alpha, d.patience, d.time_limit,
-                               config.policy.horizon, config.policy.action_steps, config.train.steps);
+  const std::string budget =
+      config.train.from_scratch
+          ? fmt::format("every update retrains from scratch for {} epochs (at most {} steps)", config.train.epochs, config.train.max_steps)
+          : fmt::format("{} training steps per update, continuing from the previous weights", config.train.steps);
+  std::string md = fmt::format("# Evaluation on {} (preset {}, expert {})\n\n{} seed(s), {} rollouts per measurement{}. "
+                               "Schedule: N_i {}, N_f {}, N_d {}, alpha {}, K {} (the gate scores every {}), T_L {}, T_p {}, T_a {}; {}. "
+                               "Thresholds over {} training pairs; the loss is scored with the {} weights.\n\n",
+                               config.task, config.preset, config.expert, o.seeds, o.episodes,
+                               o.quick ? " (quick run: tiny budgets and 3-member ensembles, a smoke test; read with care)" : "",
+                               d.initial_demos, d.final_demos, d.demos_per_update, config.method.alpha, d.patience, to_string(d.gate_every),
+                               d.time_limit, config.policy.horizon, config.policy.action_steps, budget,
+                               config.method.calibration_pairs > 0 ? fmt::format("at most {}", config.method.calibration_pairs) : "all",
+                               config.method.score_raw_weights ? "raw training" : "EMA");
   md += fmt::format("## Table I: failure prediction (RQ1)\n\nPolicies trained on N_D = {} demonstrations, rolled out without intervention. "
-                    "Positive = the rule would have asked; actual positive = the episode failed.\n\n"
-                    "| Task | N_D | Method | TPR | TNR | F1 | Acc | rollout success |\n|---|---|---|---|---|---|---|---|\n",
+                    "Positive = the rule would have asked; actual positive = the episode failed. TP, FP, TN, FN are summed over seeds; "
+                    "n/a: undefined (no failed rollout for TPR, no successful one for TNR). Ensemble-DAgger and Thrifty-DAgger act with "
+                    "the member trained on all the demonstrations; the other members are bootstrapped.\n\n"
+                    "| Task | N_D | Method | TPR | TNR | F1 | Acc | TP | FP | TN | FN | rollout success |\n"
+                    "|---|---|---|---|---|---|---|---|---|---|---|---|\n",
                     config.rq1_demos);
-  auto pm = [](const std::vector<double>& v) {
-    const auto [m, s] = mean_std(v);
-    return v.size() > 1 ? fmt::format("{:.2f} +- {:.2f}", m, s) : fmt::format("{:.2f}", m);
-  };
   for (const std::string& name : o.methods) {
     const Row& r = rows[name];
     if (r.tpr.empty()) continue;
-    md += fmt::format("| {} | {} | {} | {} | {} | {} | {} | {} |\n", config.task, config.rq1_demos, method_title(name), pm(r.tpr), pm(r.tnr),
-                      pm(r.f1), pm(r.acc), pm(r.rq1_success));
+    md += fmt::format("| {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} |\n", config.task, config.rq1_demos, method_title(name),
+                      pm(r.tpr), pm(r.tnr), pm(r.f1), pm(r.acc), r.tp, r.fp, r.tn, r.fn, pm(r.rq1_success));
   }
   md += fmt::format("\n## Table II: task performance (RQ2)\n\nSuccess rate of the final policy after interactive learning to N_f = {} "
-                    "expert demonstrations (BC: {} demonstrations, trained once with {}x the per-update budget, the gradient steps "
-                    "a DAgger run spends over its {} updates, since updates continue from the previous weights).\n\n"
+                    "expert demonstrations (successful ones: an episode the expert failed is recorded but not trained on). {}\n\n"
                     "| Task | Method | Success rate |\n|---|---|---|\n",
-                    d.final_demos, d.final_demos, bc_budget_factor(d), bc_budget_factor(d));
+                    d.final_demos,
+                    bc_scaled ? fmt::format("BC: {} demonstrations, trained once with {}x the per-update budget, the gradient steps a DAgger "
+                                            "run spends over its {} updates, since updates continue from the previous weights.",
+                                            d.final_demos, bc_budget_factor(d), bc_budget_factor(d))
+                              : fmt::format("BC: {} demonstrations, trained once by the same epoch rule as every update.", d.final_demos));
   for (const std::string& name : o.methods) md += fmt::format("| {} | {} | {} |\n", config.task, method_title(name), pm(rows[name].success));
-  md += "\n## Wall-clock per DAgger iteration (RQ3)\n\n| Method | training [s] | threshold setting [s] | inference [s] |\n|---|---|---|---|\n";
+  md += "\n## Wall-clock per DAgger iteration (RQ3)\n\nThe final iteration (the paper's figure 4) and, in brackets, the mean over "
+        "a run's iterations. Thrifty's risk data: the robot rollouts and critic refit its RQ1 policy needed before it could "
+        "judge risk.\n\n| Method | training [s] | threshold setting [s] | inference [s] | total [s] | risk data [s] |\n"
+        "|---|---|---|---|---|---|\n";
   for (const std::string& name : o.methods) {
     const Row& r = rows[name];
-    md += fmt::format("| {} | {} | {} | {} |\n", method_title(name), pm(r.train), pm(r.threshold), pm(r.inference));
+    md += fmt::format("| {} | {} ({}) | {} ({}) | {} ({}) | {:.2f} ({:.2f}) | {} |\n", method_title(name), pm(r.last_train), pm(r.train),
+                      pm(r.last_threshold), pm(r.threshold), pm(r.last_inference), pm(r.inference),
+                      mean(r.last_train) + mean(r.last_threshold) + mean(r.last_inference), mean(r.train) + mean(r.threshold) + mean(r.inference),
+                      r.risk_data.empty() ? "-" : pm(r.risk_data));
   }
   md += fmt::format("\nInference is the time spent deciding during the robot's rollouts between two updates. "
                     "Plots: `rq1_failure_prediction.png`, `rq2_success.png`, `rq3_wallclock.png`. "

@@ -1,7 +1,10 @@
 // The interactive-learning experiments behind `diffdagger dagger` and `diffdagger eval`.
 #pragma once
 
+#include <cmath>
+#include <memory>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "core/task_config.h"
@@ -15,7 +18,6 @@ ExperimentConfig resolve_config(const std::string& task, const std::string& conf
 struct DaggerRunOptions {
   std::string method = "diff";   // diff | ensemble | thrifty | bc
   std::string out;               // folder: dataset.hdf5, checkpoints/, queries.jsonl, config.json
-  std::string expert_mode = "mixed";
   bool quiet = false;            // no progress bars
 };
 
@@ -34,6 +36,30 @@ int bc_budget_factor(const DaggerConfig& dagger);
 /// kept there for evaluation. Throws dd::Error on bad input.
 DaggerRunResult run_dagger(const ExperimentConfig& config, const DaggerRunOptions& options,
                            std::unique_ptr<Method>* method_out = nullptr);
+
+/// `diffdagger train`: behaviour cloning on expert demonstrations, with a learning curve.
+struct TrainOptions {
+  std::string data;         // data set (robomimic layout) to train on; empty: collect with the config's expert
+  int demos = 0;            // train on the first N successful expert episodes (0: all of the data set)
+  std::string out;          // folder: policy.pt, curve.csv, losses.csv, summary.json
+  int eval_episodes = 0;    // rollouts of the trained policy (0: none)
+  int eval_every = 0;       // also roll out every this many steps, for a curve over training (0: at the end only)
+  uint64_t eval_seed = kTrainEvalSeed;
+  bool quiet = false;
+  static constexpr uint64_t kTrainEvalSeed = 950000;  // rollouts start here: never a demonstration's seed
+};
+
+struct TrainRunResult {
+  int demos = 0, pairs = 0;
+  double train_s = 0, eval_s = 0;
+  double final_loss = 0;
+  std::vector<std::pair<int, double>> curve;  // (training step, success rate)
+  double success = NAN;                       // at the last step; NaN without rollouts
+};
+
+/// Trains one policy with the config's network and budget (train.steps at train.batch_size) on the
+/// demonstrations, saves it and rolls it out. Only successful episodes' expert steps are used.
+TrainRunResult run_train(const ExperimentConfig& config, const TrainOptions& options);
 
 /// `diffdagger eval`: RQ1, RQ2, RQ3 for every method.
 struct EvalOptions {

@@ -98,6 +98,14 @@ void TrainConfig::validate() const {
   check(beta2 >= 0 && beta2 < 1, "train.beta2", "must be in [0, 1)");
   check(warmup_steps >= 0, "train.warmup_steps", "must be >= 0");
   check(ema_max_decay >= 0 && ema_max_decay < 1, "train.ema_max_decay", "must be in [0, 1)");
+  check(epochs >= 0, "train.epochs", "must be >= 0");
+  check(max_steps >= 1, "train.max_steps", "must be >= 1");
+}
+
+int TrainConfig::steps_for(int pairs) const {
+  if (epochs <= 0) return steps;
+  const int64_t n = (static_cast<int64_t>(epochs) * pairs + batch_size - 1) / batch_size;
+  return static_cast<int>(std::clamp<int64_t>(n, 1, max_steps));
 }
 
 void to_json(nlohmann::json& j, const UnetConfig& c) {
@@ -170,13 +178,16 @@ void to_json(nlohmann::json& j, const TrainConfig& c) {
            {"ema_power", c.ema_power},
            {"ema_max_decay", c.ema_max_decay},
            {"seed", c.seed},
-           {"fit_normalizer", c.fit_normalizer}};
+           {"fit_normalizer", c.fit_normalizer},
+           {"from_scratch", c.from_scratch},
+           {"epochs", c.epochs},
+           {"max_steps", c.max_steps}};
 }
 
 void from_json(const nlohmann::json& j, TrainConfig& c) {
   require_known_keys(j,
                      {"steps", "batch_size", "lr", "weight_decay", "beta1", "beta2", "warmup_steps",
-                      "grad_clip", "ema_power", "ema_max_decay", "seed", "fit_normalizer"},
+                      "grad_clip", "ema_power", "ema_max_decay", "seed", "fit_normalizer", "from_scratch", "epochs", "max_steps"},
                      "train");
   read(j, "steps", c.steps, "train");
   read(j, "batch_size", c.batch_size, "train");
@@ -190,6 +201,9 @@ void from_json(const nlohmann::json& j, TrainConfig& c) {
   read(j, "ema_max_decay", c.ema_max_decay, "train");
   read(j, "seed", c.seed, "train");
   read(j, "fit_normalizer", c.fit_normalizer, "train");
+  read(j, "from_scratch", c.from_scratch, "train");
+  read(j, "epochs", c.epochs, "train");
+  read(j, "max_steps", c.max_steps, "train");
 }
 
 PolicyConfig policy_config_from_json(const std::string& text, const std::string& source) {

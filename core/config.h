@@ -69,8 +69,16 @@ struct TrainConfig {
   double ema_max_decay = 0.9999;
   uint64_t seed = 0;            // minibatch order, noise and timesteps
   bool fit_normalizer = true;   // refit the normalizer on the training data before training
+  // How a policy update trains. false (the default): continue from the current weights for `steps`
+  // gradient steps. true: re-initialise the network and train from scratch (the paper's text and the
+  // authors' released code); the number of steps then comes from `epochs` when it is positive.
+  bool from_scratch = false;
+  int epochs = 0;               // > 0: steps = min(max_steps, ceil(epochs * pairs / batch_size))
+  int max_steps = 30000;        // cap of the epoch rule
 
   void validate() const;
+  /// The gradient steps for a data set of `pairs` pairs (steps, or the epoch rule when epochs > 0).
+  int steps_for(int pairs) const;
 };
 
 /// Named presets: "cpu" (default, fast on 2 cores), "medium" (64,128,256) and "paper" (256,512,1024).

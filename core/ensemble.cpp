@@ -14,24 +14,33 @@ PolicyEnsemble::PolicyEnsemble(const PolicyConfig& config, int members, uint64_t
   spdlog::info("ensemble: {} policies of {} parameters each", members, members_[0]->num_parameters());
 }
 
+void PolicyEnsemble::reinitialize(uint64_t seed) {
+  for (int i = 0; i < size(); ++i) members_[static_cast<size_t>(i)]->reinitialize(seed + static_cast<uint64_t>(i));
+}
+
 std::vector<TrainStats> PolicyEnsemble::train(const std::vector<Episode>& episodes, const TrainConfig& config,
                                               const ProgressFn& progress) {
   if (episodes.empty()) throw Error("ensemble: no episodes to train on");
   std::mt19937_64 rng(seed_ ^ 0xb0075742ull);
   std::uniform_int_distribution<size_t> pick(0, episodes.size() - 1);
   std::vector<TrainStats> stats;
-  const int total = config.steps * size();
+  const int horizon = members_[0]->config().horizon;
+  const int per_member = config.steps_for(ChunkDataset::from_episodes(episodes, horizon).size());
+  const int total = per_member * size();
   for (int m = 0; m < size(); ++m) {
     std::vector<Episode> resample;
-    resample.reserve(episodes.size());
-    for (size_t i = 0; i < episodes.size(); ++i) resample.push_back(episodes[pick(rng)]);
+    if (m == 0) {
+      resample = episodes;
+    } else {
+      resample.reserve(episodes.size());
+      for (size_t i = 0; i < episodes.size(); ++i) resample.push_back(episodes[pick(rng)]);
+    }
     TrainConfig c = config;
     c.seed = config.seed + static_cast<uint64_t>(m) * 7919;
     const ProgressFn member_progress = progress ? ProgressFn([&, m](int done, int, double loss) {
-      progress(m * config.steps + done, total, loss);
+      progress(std::min(total, m * per_member + done), total, loss);
     }) : ProgressFn{};
-    stats.push_back(dd::train(*members_[static_cast<size_t>(m)],
-                              ChunkDataset::from_episodes(resample, members_[0]->config().horizon), c, member_progress));
+    stats.push_back(dd::train(*members_[static_cast<size_t>(m)], ChunkDataset::from_episodes(resample, horizon), c, member_progress));
   }
   return stats;
 }

@@ -16,12 +16,16 @@ class PolicyEnsemble {
   /// `members` policies of the same config, initialised from seed, seed + 1, ...
   PolicyEnsemble(const PolicyConfig& config, int members, uint64_t seed);
 
+  /// Re-initialises every member (member i from seed + i): an update that trains from scratch.
+  void reinitialize(uint64_t seed);
+
   int size() const { return static_cast<int>(members_.size()); }
   DiffusionPolicy& member(int i) { return *members_[static_cast<size_t>(i)]; }
   const DiffusionPolicy& member(int i) const { return *members_[static_cast<size_t>(i)]; }
 
-  /// Trains every member on its own bootstrap resample of the episodes (as many episodes, drawn with
-  /// replacement). Progress counts steps over all members.
+  /// Trains member 0, the one that acts, on all the episodes, and every other member on its own
+  /// bootstrap resample (as many episodes, drawn with replacement): the acting policy sees the same
+  /// data as Diff-DAgger's and BC's, the others supply the spread. Progress counts steps over all members.
   std::vector<TrainStats> train(const std::vector<Episode>& episodes, const TrainConfig& config,
                                 const ProgressFn& progress = {});
 
@@ -32,8 +36,8 @@ class PolicyEnsemble {
   /// Same, as a variance (the mean over elements of the across-member variance).
   std::vector<float> action_variance(const Mat& obs, uint64_t seed) const;
 
-  /// One control decision: every member generates a chunk for `obs`; the first member's chunk is the
-  /// one executed, and the spread of all of them is the uncertainty.
+  /// One control decision: every member generates a chunk for `obs`; the first member's chunk (the
+  /// member trained on all the data) is the one executed, and the spread of all of them is the uncertainty.
   struct Decision {
     Mat chunk;            // T_p x action_dim, raw units
     float variance = 0;   // mean over elements of the across-member variance

@@ -1,41 +1,50 @@
 #include "core/evaluation.h"
 
 #include <chrono>
+#include <cmath>
 
 #include "core/gate.h"
 
 namespace dd {
 
-std::vector<RolloutResult> evaluate_rollouts(Env& env, Method& method, int episodes, int time_limit, int patience,
-                                             int action_steps, uint64_t seed, const ProgressFn& progress,
-                                             std::vector<RecordedEpisode>* recorded) {
+std::vector<RolloutResult> evaluate_rollouts(Env& env, Method& method, int episodes, const RolloutSpec& spec, uint64_t seed,
+                                             const ProgressFn& progress, std::vector<RecordedEpisode>* recorded) {
   std::vector<RolloutResult> out;
-  QueryGate gate(0.f, patience);
+  QueryGate gate(0.f, spec.patience);
+  const bool every_step = spec.gate_every == GateCadence::kStep && method.gated();
   for (int e = 0; e < episodes; ++e) {
     RolloutResult r;
     const uint64_t s = seed + static_cast<uint64_t>(e);
     env.reset(s);
-    env.set_time_limit(time_limit);
+    env.set_time_limit(spec.time_limit);
     gate.reset();
     bool done = false;
     uint64_t decision = 0;
+    Mat chunk;
+    int pos = 0;
     std::vector<Vec> obs, act;
     while (!done) {
-      const auto t = std::chrono::steady_clock::now();
-      const MethodDecision d = method.decide(env.observation(), s * 7919 + decision++);
-      r.inference_s += std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count();
-      ++r.decisions;
-      if (method.gated() && gate.record(d.violation).query && !r.queried) {
-        r.queried = true;
-        r.first_query_step = env.steps();
-      }
-      for (int k = 0; k < action_steps && !done; ++k) {
-        if (recorded) {
-          obs.push_back(env.observation());
-          act.push_back(d.chunk.row(k).transpose());
+      const bool need_chunk = chunk.rows() == 0 || pos >= spec.action_steps;
+      if (need_chunk || every_step) {
+        const auto t = std::chrono::steady_clock::now();
+        const MethodDecision d = method.decide(env.observation(), s * 7919 + decision++);
+        r.inference_s += std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count();
+        ++r.decisions;
+        if (method.gated() && gate.record(d.violation).query && !r.queried) {
+          r.queried = true;
+          r.first_query_step = env.steps();
         }
-        done = env.step(d.chunk.row(k).transpose()).done;
+        if (need_chunk) {
+          chunk = d.chunk;
+          pos = 0;
+        }
       }
+      const Vec a = chunk.row(pos++).transpose();
+      if (recorded) {
+        obs.push_back(env.observation());
+        act.push_back(a);
+      }
+      done = env.step(a).done;
     }
     r.success = env.success();
     r.steps = env.steps();
@@ -84,11 +93,12 @@ FailurePrediction failure_prediction(const std::vector<RolloutResult>& results) 
     else ++p.fn;
   }
   const int failures = p.tp + p.fn, successes = p.tn + p.fp, n = failures + successes;
-  p.tpr = failures ? static_cast<double>(p.tp) / failures : 0.0;
-  p.tnr = successes ? static_cast<double>(p.tn) / successes : 0.0;
-  const double precision = (p.tp + p.fp) ? static_cast<double>(p.tp) / (p.tp + p.fp) : 0.0;
-  p.f1 = (precision + p.tpr) > 0 ? 2 * precision * p.tpr / (precision + p.tpr) : 0.0;
-  p.accuracy = n ? static_cast<double>(p.tp + p.tn) / n : 0.0;
+  // An empty class leaves its rate undefined (NaN), not 0: no failure to catch is not a miss.
+  p.tpr = failures ? static_cast<double>(p.tp) / failures : NAN;
+  p.tnr = successes ? static_cast<double>(p.tn) / successes : NAN;
+  const int f1_den = 2 * p.tp + p.fp + p.fn;
+  p.f1 = f1_den ? 2.0 * p.tp / f1_den : NAN;
+  p.accuracy = n ? static_cast<double>(p.tp + p.tn) / n : NAN;
   return p;
 }
 

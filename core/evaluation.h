@@ -8,6 +8,7 @@
 #include "core/env.h"
 #include "core/method.h"
 #include "core/progress.h"
+#include "core/session.h"
 
 namespace dd {
 
@@ -20,11 +21,20 @@ struct RolloutResult {
   double inference_s = 0;     // time spent deciding
 };
 
-/// Runs `episodes` robot-only episodes from seeds seed, seed + 1, ... with time limit T_L. When
-/// `recorded` is given, every episode's steps are appended to it as robot data (Thrifty's critic).
-std::vector<RolloutResult> evaluate_rollouts(Env& env, Method& method, int episodes, int time_limit, int patience,
-                                             int action_steps, uint64_t seed, const ProgressFn& progress = {},
-                                             std::vector<RecordedEpisode>* recorded = nullptr);
+/// How the robot acts and the gate counts in a rollout: the DAgger schedule's T_L, K, T_a and cadence.
+struct RolloutSpec {
+  int time_limit = 200;
+  int patience = 2;
+  int action_steps = 8;
+  GateCadence gate_every = GateCadence::kChunk;
+  static RolloutSpec of(const DaggerConfig& d) { return {d.time_limit, d.patience, d.action_steps, d.gate_every}; }
+};
+
+/// Runs `episodes` robot-only episodes from seeds seed, seed + 1, ... with time limit T_L, deciding
+/// like the session does (a chunk per T_a steps; with GateCadence::kStep a scored chunk at every step).
+/// When `recorded` is given, every episode's steps are appended to it as robot data (Thrifty's critic).
+std::vector<RolloutResult> evaluate_rollouts(Env& env, Method& method, int episodes, const RolloutSpec& spec, uint64_t seed,
+                                             const ProgressFn& progress = {}, std::vector<RecordedEpisode>* recorded = nullptr);
 
 /// One episode of `expert` from `seed` (env and expert reset with it), run until the env says done:
 /// every step flagged as an intervention, source "expert", reward 1 on the last step of a success.
@@ -33,10 +43,10 @@ RecordedEpisode expert_episode(Env& env, Expert& expert, uint64_t seed);
 /// The confusion matrix of queries against failures: positive = query, actual positive = failure.
 struct FailurePrediction {
   int tp = 0, fp = 0, tn = 0, fn = 0;
-  double tpr = 0;  // queried failures / failures
-  double tnr = 0;  // unqueried successes / successes
-  double f1 = 0;
-  double accuracy = 0;
+  double tpr = 0;       // queried failures / failures; NaN when no rollout failed
+  double tnr = 0;       // unqueried successes / successes; NaN when none succeeded
+  double f1 = 0;        // 2TP / (2TP + FP + FN); NaN when that is 0 / 0
+  double accuracy = 0;  // NaN without rollouts
 };
 FailurePrediction failure_prediction(const std::vector<RolloutResult>& results);
 

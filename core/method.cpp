@@ -16,7 +16,9 @@ double since(Clock::time_point t) { return std::chrono::duration<double>(Clock::
 
 class DiffMethod : public Method {
  public:
-  DiffMethod(const PolicyConfig& pc, const MethodConfig& mc, uint64_t seed) : policy_(pc, seed), config_(mc), seed_(seed) {}
+  DiffMethod(const PolicyConfig& pc, const MethodConfig& mc, uint64_t seed) : policy_(pc, seed), config_(mc), seed_(seed) {
+    policy_.set_score_weights(mc.score_raw_weights ? ScoreWeights::kRaw : ScoreWeights::kEma);
+  }
   std::string name() const override { return "diff"; }
 
   UpdateReport update(const std::vector<Episode>& expert, const std::vector<RecordedEpisode>&, const TrainConfig& train_config,
@@ -25,6 +27,7 @@ class DiffMethod : public Method {
     const ChunkDataset data = ChunkDataset::from_episodes(expert, policy_.config().horizon);
     r.pairs = data.size();
     auto t = Clock::now();
+    if (train_config.from_scratch && updates_ > 0) policy_.reinitialize(seed_ + 7919 * updates_);
     r.final_loss = train(policy_, data, train_config, progress).last_mean();
     r.train_s = since(t);
     t = Clock::now();
@@ -67,6 +70,7 @@ class EnsembleMethod : public Method {
     const ChunkDataset data = ChunkDataset::from_episodes(expert, ensemble_.member(0).config().horizon);
     r.pairs = data.size();
     auto t = Clock::now();
+    if (train_config.from_scratch && updates_ > 0) ensemble_.reinitialize(seed_ + 7919 * updates_);
     const auto stats = ensemble_.train(expert, train_config, progress);
     r.final_loss = stats.front().last_mean();
     r.train_s = since(t);
@@ -110,7 +114,30 @@ class ThriftyMethod : public EnsembleMethod {
   UpdateReport update(const std::vector<Episode>& expert, const std::vector<RecordedEpisode>& robot, const TrainConfig& train_config,
                       const ProgressFn& progress) override {
     UpdateReport r = EnsembleMethod::update(expert, robot, train_config, progress);
-    // Risk: Q learned from demonstrations (successes) and robot rollouts (successes and failures).
+    const auto [train_s, threshold_s] = fit_risk(expert, robot);
+    r.train_s += train_s;
+    r.threshold_s += threshold_s;
+    return r;
+  }
+
+  double refit_risk(const std::vector<Episode>& expert, const std::vector<RecordedEpisode>& robot) override {
+    const auto [train_s, threshold_s] = fit_risk(expert, robot);
+    return train_s + threshold_s;
+  }
+
+  MethodDecision decide(const Vec& obs, uint64_t seed) override {
+    MethodDecision m = EnsembleMethod::decide(obs, seed);
+    m.risk_q = critic_.q(obs.transpose(), m.chunk.row(0)).front();
+    m.violation = m.violation || m.risk_q < gamma_;
+    return m;
+  }
+
+ private:
+  // Risk: Q learned from the demonstrations (successes: failed expert episodes never reach training)
+  // and the robot's rollouts (its episodes and the robot's part of intervened ones, which end in a
+  // non-success at the takeover). gamma is a low quantile of Q over the robot's own states (the
+  // demonstrations' when there are none yet). Returns the seconds spent training and setting gamma.
+  std::pair<double, double> fit_risk(const std::vector<Episode>& expert, const std::vector<RecordedEpisode>& robot) {
     auto t = Clock::now();
     std::vector<RecordedEpisode> transitions;
     for (const Episode& e : expert) {
@@ -122,32 +149,20 @@ class ThriftyMethod : public EnsembleMethod {
     }
     transitions.insert(transitions.end(), robot.begin(), robot.end());
     critic_.train(transitions);
-    r.train_s += since(t);
+    const double train_s = since(t);
     t = Clock::now();
-    // gamma: a low quantile of Q over the robot's own states (the demonstrations' when there are none yet).
     const std::vector<RecordedEpisode>& source = robot.empty() ? transitions : robot;
-    Eigen::Index n = 0;
-    for (const auto& e : source) n += e.steps();
-    Mat obs(n, expert.front().obs.cols()), act(n, expert.front().actions.cols());
-    Eigen::Index row = 0;
-    for (const auto& e : source) {
-      obs.middleRows(row, e.steps()) = e.obs;
-      act.middleRows(row, e.steps()) = e.actions;
-      row += e.steps();
-    }
-    gamma_ = quantile(critic_.q(obs, act), config_.risk_quantile);
-    r.threshold_s += since(t);
-    return r;
+    std::vector<Vec> obs, act;
+    for (const auto& e : source)
+      for (Eigen::Index i = 0; i < e.steps(); ++i) {
+        obs.push_back(e.obs.row(i).transpose());
+        act.push_back(e.actions.row(i).transpose());
+      }
+    gamma_ = quantile(critic_.q(stack_rows(obs, expert.front().obs.cols()), stack_rows(act, expert.front().actions.cols())),
+                      config_.risk_quantile);
+    return {train_s, since(t)};
   }
 
-  MethodDecision decide(const Vec& obs, uint64_t seed) override {
-    MethodDecision m = EnsembleMethod::decide(obs, seed);
-    m.risk_q = critic_.q(obs.transpose(), m.chunk.row(0)).front();
-    m.violation = m.violation || m.risk_q < gamma_;
-    return m;
-  }
-
- private:
   static CriticConfig critic_config(const MethodConfig& mc, uint64_t seed) {
     CriticConfig c = mc.critic;
     c.seed = seed;
@@ -159,7 +174,7 @@ class ThriftyMethod : public EnsembleMethod {
 
 class BcMethod : public Method {
  public:
-  BcMethod(const PolicyConfig& pc, uint64_t seed) : policy_(pc, seed) {}
+  BcMethod(const PolicyConfig& pc, uint64_t seed) : policy_(pc, seed), seed_(seed) {}
   std::string name() const override { return "bc"; }
   bool gated() const override { return false; }
 
@@ -169,6 +184,8 @@ class BcMethod : public Method {
     const ChunkDataset data = ChunkDataset::from_episodes(expert, policy_.config().horizon);
     r.pairs = data.size();
     const auto t = Clock::now();
+    if (train_config.from_scratch && trained_) policy_.reinitialize(seed_ + 7919);
+    trained_ = true;
     r.final_loss = train(policy_, data, train_config, progress).last_mean();
     r.train_s = since(t);
     return r;
@@ -183,9 +200,35 @@ class BcMethod : public Method {
 
  private:
   DiffusionPolicy policy_;
+  uint64_t seed_;
+  bool trained_ = false;
+};
+
+// Acts with a borrowed policy and never asks.
+class PolicyActor : public Method {
+ public:
+  explicit PolicyActor(const DiffusionPolicy& p) : policy_(p) {}
+  std::string name() const override { return "policy"; }
+  bool gated() const override { return false; }
+  UpdateReport update(const std::vector<Episode>&, const std::vector<RecordedEpisode>&, const TrainConfig&,
+                      const ProgressFn&) override {
+    throw Error("a borrowed policy is trained by its owner, not through Method::update");
+  }
+  MethodDecision decide(const Vec& obs, uint64_t seed) override {
+    MethodDecision m;
+    m.chunk = policy_.sample(obs, seed);
+    return m;
+  }
+  float threshold() const override { return INFINITY; }
+  void save(const std::string& dir) const override { policy_.save(dir + "/policy.pt"); }
+
+ private:
+  const DiffusionPolicy& policy_;
 };
 
 }  // namespace
+
+std::unique_ptr<Method> act_with(const DiffusionPolicy& policy) { return std::make_unique<PolicyActor>(policy); }
 
 std::vector<std::string> method_names() { return {"diff", "ensemble", "thrifty", "bc"}; }
 

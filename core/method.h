@@ -22,12 +22,15 @@
 
 namespace dd {
 
+class DiffusionPolicy;
+
 /// Settings shared by the query rules.
 struct MethodConfig {
   double alpha = 0.99;           // threshold quantile
   int members = 5;               // ensemble size (ensemble, thrifty)
   int loss_samples = 512;        // N_b (diff)
-  int calibration_pairs = 2000;  // threshold over at most this many training pairs (0: all)
+  int calibration_pairs = 0;     // threshold over at most this many training pairs (0: all, the paper's rule)
+  bool score_raw_weights = false;  // diff: score the loss with the raw training weights instead of the EMA
   double risk_quantile = 0.01;   // thrifty: gamma is this quantile of Q on robot data
   CriticConfig critic;           // thrifty
 };
@@ -60,6 +63,13 @@ class Method {
   /// own rollouts (Thrifty's critic learns from them).
   virtual UpdateReport update(const std::vector<Episode>& expert, const std::vector<RecordedEpisode>& robot,
                               const TrainConfig& train, const ProgressFn& progress = {}) = 0;
+  /// Refits what the method learns from the robot's own rollouts, without retraining its policies:
+  /// Thrifty's risk critic and its threshold gamma. Returns the seconds it took (0 for the others).
+  virtual double refit_risk(const std::vector<Episode>& expert, const std::vector<RecordedEpisode>& robot) {
+    (void)expert;
+    (void)robot;
+    return 0;
+  }
   /// Generates a chunk for `obs` and applies the query rule.
   virtual MethodDecision decide(const Vec& obs, uint64_t seed) = 0;
   /// The current threshold (after the first update).
@@ -67,6 +77,10 @@ class Method {
   /// Writes the method's policy checkpoints into `dir` (policy.pt, or member_<i>.pt for ensembles).
   virtual void save(const std::string& dir) const = 0;
 };
+
+/// A method that acts with `policy` (borrowed, must outlive it) and never asks: for evaluating a
+/// policy that is being trained or was loaded from a checkpoint.
+std::unique_ptr<Method> act_with(const DiffusionPolicy& policy);
 
 /// "diff", "ensemble", "thrifty", "bc".
 std::vector<std::string> method_names();

@@ -72,7 +72,8 @@ torch::Tensor DiffusionPolicy::Impl::expected_loss(const torch::Tensor& obs, con
   // Condition each (pair, timestep) once: B * T rows instead of B * n.
   const torch::Tensor t_distinct = torch::arange(T, torch::kInt64).repeat({B});
   const torch::Tensor obs_distinct = obs.repeat_interleave(T, 0);
-  const std::vector<torch::Tensor> films = ema->film(ema->condition(t_distinct, obs_distinct));
+  nn::ConditionalUnet1D net = scorer();
+  const std::vector<torch::Tensor> films = net->film(net->condition(t_distinct, obs_distinct));
   // Row (p, i) has timestep i mod T and uses conditioning row p * T + (i mod T).
   const torch::Tensor t_rows = (torch::arange(n, torch::kInt64) % T).repeat({B});
   const torch::Tensor cond_rows = torch::arange(B, torch::kInt64).repeat_interleave(n) * T + t_rows;
@@ -83,7 +84,7 @@ torch::Tensor DiffusionPolicy::Impl::expected_loss(const torch::Tensor& obs, con
   const torch::Tensor x0 = chunks.repeat_interleave(n, 0);
   const torch::Tensor eps = torch::randn(x0.sizes(), gen, x0.options());
   const torch::Tensor x_t = scheduler.add_noise(x0, eps, t_rows);
-  const torch::Tensor pred = ema->denoise(x_t, row_films);
+  const torch::Tensor pred = net->denoise(x_t, row_films);
   return (pred - scheduler.target(x0, eps, t_rows)).pow(2).reshape({B, -1}).mean(1);
 }
 
@@ -157,6 +158,17 @@ std::vector<Mat> DiffusionPolicy::sample_batch(const Mat& obs, uint64_t seed) co
 Mat DiffusionPolicy::sample(const Vec& obs, uint64_t seed) const {
   return sample_batch(obs.transpose(), seed).front();
 }
+
+void DiffusionPolicy::reinitialize(uint64_t seed) {
+  auto fresh = std::make_unique<Impl>(impl_->config, seed);
+  fresh->obs_norm = impl_->obs_norm;
+  fresh->act_norm = impl_->act_norm;
+  fresh->score_weights = impl_->score_weights;
+  impl_ = std::move(fresh);
+}
+
+void DiffusionPolicy::set_score_weights(ScoreWeights w) { impl_->score_weights = w; }
+ScoreWeights DiffusionPolicy::score_weights() const { return impl_->score_weights; }
 
 float DiffusionPolicy::expected_loss(const Vec& obs, const Mat& chunk, uint64_t seed, int n_samples) const {
   torch::Generator gen = make_generator(seed);

@@ -26,6 +26,10 @@ struct ChunkDataset;
 /// Default N_b: (noise, timestep) samples per expected loss.
 constexpr int kDefaultLossSamples = 512;
 
+/// Which weights score the expected loss: the EMA weights that also sample (the default) or the raw
+/// training weights (the authors' released code).
+enum class ScoreWeights { kEma, kRaw };
+
 /// One control decision: the generated chunk and its expected diffusion loss.
 struct Decision {
   Mat chunk;         // T_p x action_dim, raw units
@@ -47,6 +51,13 @@ class DiffusionPolicy {
   const Normalizer& action_normalizer() const;
   /// Sets both normalisers (sizes must match obs_dim and action_dim).
   void set_normalizers(Normalizer obs, Normalizer action);
+
+  /// Re-initialises the network (weights drawn from `seed`), keeping config and normalisers: an update
+  /// that trains from scratch.
+  void reinitialize(uint64_t seed);
+  /// Which weights expected_loss, expected_losses and decide score with (sampling always uses the EMA).
+  void set_score_weights(ScoreWeights w);
+  ScoreWeights score_weights() const;
 
   /// Generates one action chunk for `obs` (obs_dim) -> (T_p x action_dim), raw units.
   Mat sample(const Vec& obs, uint64_t seed) const;

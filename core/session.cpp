@@ -1,5 +1,6 @@
 #include "core/session.h"
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 
@@ -20,6 +21,8 @@ void DaggerConfig::validate() const {
   check(action_steps >= 1, "action_steps", "must be >= 1");
   check(max_episodes >= 0, "max_episodes", "must be >= 0");
 }
+
+std::string to_string(GateCadence g) { return g == GateCadence::kStep ? "step" : "chunk"; }
 
 std::string to_string(Control c) {
   switch (c) {
@@ -82,7 +85,8 @@ bool DaggerSession::tick() {
     if (env_.steps() >= config_.time_limit) {
       emit({EventKind::kTimeout});
       hand_over(Control::kExpertTimeout);
-    } else if (chunk_.rows() == 0 || chunk_pos_ >= config_.action_steps) {
+    } else if (decision_due()) {
+      const bool need_chunk = chunk_.rows() == 0 || chunk_pos_ >= config_.action_steps;
       MethodDecision d;
       double took = 0;
       if (provided_) {
@@ -108,7 +112,7 @@ bool DaggerSession::tick() {
       if (g.query) {
         emit({EventKind::kQuery});
         hand_over(Control::kExpertQuery);
-      } else {
+      } else if (need_chunk) {
         chunk_ = d.chunk;
         chunk_pos_ = 0;
       }
@@ -137,7 +141,8 @@ bool DaggerSession::prepare() {
 
 bool DaggerSession::decision_due() const {
   return in_episode_ && !update_pending_ && control_ == Control::kRobot && env_.steps() < config_.time_limit &&
-         (chunk_.rows() == 0 || chunk_pos_ >= config_.action_steps);
+         (chunk_.rows() == 0 || chunk_pos_ >= config_.action_steps ||
+          (config_.gate_every == GateCadence::kStep && method_.gated()));
 }
 
 void DaggerSession::provide_decision(MethodDecision decision, double seconds) {
@@ -147,8 +152,12 @@ void DaggerSession::provide_decision(MethodDecision decision, double seconds) {
 }
 
 void DaggerSession::end_episode_now() {
-  if (in_episode_ && !obs_.empty()) end_episode();
-  else in_episode_ = false;
+  if (in_episode_ && !obs_.empty()) {
+    cut_short_ = true;  // stopped by the operator: not an expert failure, its expert steps are kept
+    end_episode();
+  } else {
+    in_episode_ = false;
+  }
 }
 
 bool DaggerSession::take_over() {
@@ -204,7 +213,23 @@ void DaggerSession::end_episode() {
 
   SessionEvent end{EventKind::kEpisodeEnd};
   end.success = rec.success;
-  if (expert_acted && T > 0) {
+  if (expert_acted && T > 0 && flags_.front() == 0) {
+    // the robot's part, up to the takeover, ends in a non-success
+    const auto robot_steps = static_cast<Eigen::Index>(std::find(flags_.begin(), flags_.end(), 1) - flags_.begin());
+    RecordedEpisode part;
+    part.obs = rec.obs.topRows(robot_steps);
+    part.actions = rec.actions.topRows(robot_steps);
+    part.success = false;
+    part.source = "robot";
+    robot_data_.push_back(std::move(part));
+  }
+  // A scripted expert that failed gives no training data (the operator's steps are always kept).
+  const bool expert_failed = expert_acted && !rec.success && control_ != Control::kOperator && !cut_short_;
+  cut_short_ = false;
+  if (expert_acted && T > 0 && expert_failed) {
+    if (writer_) writer_->append(rec);  // kept in the data set, flagged success = 0
+    ++expert_failures_;
+  } else if (expert_acted && T > 0) {
     if (writer_) writer_->append(rec);  // durable before the next episode begins
     expert_data_.push_back(rec.expert_steps());
     ++expert_demos_;

@@ -8,6 +8,10 @@
 //                   finishes the episode; its steps are recorded with the intervention flag
 //   expert (timeout) the same when the robot has neither asked nor finished within T_L steps
 //   update          after every N_d interventions: train on all expert data, then set the threshold
+// An episode in which the scripted expert acted and failed is written to the data set (success 0) but
+// kept out of training and of the counts N_i, N_d and N_f (an episode the operator ends early is not a
+// failure: its expert steps are kept). The robot's part of an intervened episode
+// is kept as robot data ending in a non-success (Thrifty's critic learns from it).
 //   done            when N_f expert demonstrations exist (after a last update that includes them all),
 //                   or after max_episodes episodes when a robot rarely needs help
 // An episode the robot finishes by itself adds no expert data (Thrifty's critic learns from it).
@@ -27,6 +31,12 @@
 
 namespace dd {
 
+/// How often the query rule scores: once per generated chunk (K counts chunks), or at every control
+/// step with a freshly sampled chunk (K counts steps; the authors' released code). Either way the robot
+/// executes T_a actions of the chunk generated at the start of each action horizon.
+enum class GateCadence { kChunk, kStep };
+std::string to_string(GateCadence g);
+
 /// The data-aggregation schedule (the paper's Table III columns).
 struct DaggerConfig {
   int initial_demos = 10;     // N_i
@@ -37,6 +47,7 @@ struct DaggerConfig {
   int expert_time_limit = 0;  // steps an episode may run in all, expert included (0: 2 * T_L)
   int action_steps = 8;       // T_a: actions executed per chunk
   int max_episodes = 0;       // stop after this many episodes even short of N_f (0: no bound)
+  GateCadence gate_every = GateCadence::kChunk;
   uint64_t seed = 0;
 
   void validate() const;
@@ -99,7 +110,8 @@ class DaggerSession {
   /// Starts the next episode now if one is due (no update pending, not done); tick() would start it
   /// itself. Returns whether an episode is in progress. Lets a caller see the first decision coming.
   bool prepare();
-  /// True when the next tick() will ask the method for a decision.
+  /// True when the next tick() will ask the method for a decision (at a chunk boundary, or at every
+  /// robot step with GateCadence::kStep).
   bool decision_due() const;
   /// The seed the next decision uses.
   uint64_t next_decision_seed() const { return episode_seed_ * 7919 + decisions_; }
@@ -123,6 +135,8 @@ class DaggerSession {
   int expert_demos() const { return expert_demos_; }
   int interventions() const { return interventions_; }
   int updates() const { return updates_; }
+  /// Episodes in which the scripted expert failed (recorded, not trained on, not counted).
+  int expert_failures() const { return expert_failures_; }
   const std::vector<UpdateReport>& reports() const { return reports_; }
   /// Decision time spent since the last update began (for the wall-clock comparison).
   double inference_s_since_update() const { return inference_s_; }
@@ -145,11 +159,12 @@ class DaggerSession {
 
   bool done_ = false, update_pending_ = false, finishing_ = false, in_episode_ = false, expert_acted_ = false;
   Control control_ = Control::kExpertDemo;
-  int episode_ = 0, expert_demos_ = 0, interventions_ = 0, updates_ = 0, demos_at_last_update_ = -1;
+  int episode_ = 0, expert_demos_ = 0, interventions_ = 0, updates_ = 0, demos_at_last_update_ = -1, expert_failures_ = 0;
   uint64_t episode_seed_ = 0, decisions_ = 0;
   Mat chunk_;
   int chunk_pos_ = 0;
   bool provided_ = false;
+  bool cut_short_ = false;  // end_episode_now() is ending this episode
   MethodDecision provided_decision_;
   double provided_seconds_ = 0;
   double inference_s_ = 0;

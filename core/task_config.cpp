@@ -55,7 +55,7 @@ using json_read::require_known_keys;
 
 void apply_dagger(const json& j, DaggerConfig& d) {
   require_known_keys(j, {"initial_demos", "final_demos", "demos_per_update", "patience", "time_limit", "expert_time_limit", "action_steps",
-                   "max_episodes", "seed"},
+                   "max_episodes", "gate_every", "seed"},
                "dagger");
   read(j, "initial_demos", d.initial_demos, "dagger");
   read(j, "final_demos", d.final_demos, "dagger");
@@ -66,27 +66,40 @@ void apply_dagger(const json& j, DaggerConfig& d) {
   read(j, "action_steps", d.action_steps, "dagger");
   read(j, "max_episodes", d.max_episodes, "dagger");
   read(j, "seed", d.seed, "dagger");
+  if (j.contains("gate_every")) {
+    std::string g;
+    read(j, "gate_every", g, "dagger");
+    if (g != "chunk" && g != "step") throw Error("dagger.gate_every: '" + g + "' is not one of chunk, step");
+    d.gate_every = g == "step" ? GateCadence::kStep : GateCadence::kChunk;
+  }
 }
 
 void apply_method(const json& j, MethodConfig& m) {
-  require_known_keys(j, {"alpha", "members", "loss_samples", "calibration_pairs", "risk_quantile", "critic_steps"}, "method");
+  require_known_keys(j, {"alpha", "members", "loss_samples", "calibration_pairs", "score_weights", "risk_quantile", "critic_steps"}, "method");
   read(j, "alpha", m.alpha, "method");
   read(j, "members", m.members, "method");
   read(j, "loss_samples", m.loss_samples, "method");
   read(j, "calibration_pairs", m.calibration_pairs, "method");
   read(j, "risk_quantile", m.risk_quantile, "method");
   read(j, "critic_steps", m.critic.steps, "method");
+  if (j.contains("score_weights")) {
+    std::string w;
+    read(j, "score_weights", w, "method");
+    if (w != "ema" && w != "raw") throw Error("method.score_weights: '" + w + "' is not one of ema, raw");
+    m.score_raw_weights = w == "raw";
+  }
 }
 
 json method_json(const MethodConfig& m) {
   return json{{"alpha", m.alpha}, {"members", m.members}, {"loss_samples", m.loss_samples},
-              {"calibration_pairs", m.calibration_pairs}, {"risk_quantile", m.risk_quantile}, {"critic_steps", m.critic.steps}};
+              {"calibration_pairs", m.calibration_pairs},
+              {"score_weights", m.score_raw_weights ? "raw" : "ema"}, {"risk_quantile", m.risk_quantile}, {"critic_steps", m.critic.steps}};
 }
 
 json dagger_json(const DaggerConfig& d) {
   return json{{"initial_demos", d.initial_demos}, {"final_demos", d.final_demos}, {"demos_per_update", d.demos_per_update},
               {"patience", d.patience}, {"time_limit", d.time_limit}, {"expert_time_limit", d.expert_time_limit},
-              {"action_steps", d.action_steps}, {"max_episodes", d.max_episodes}, {"seed", d.seed}};
+              {"action_steps", d.action_steps}, {"max_episodes", d.max_episodes}, {"gate_every", to_string(d.gate_every)}, {"seed", d.seed}};
 }
 
 // Table III row: T_p, T_a, T_d, N_i, N_f, N_d, alpha, K, T_L.
@@ -139,7 +152,6 @@ ExperimentConfig preset(const std::string& name) {
     c.train.lr = 1e-3;
     c.train.warmup_steps = 50;
     c.method.loss_samples = 512;
-    c.method.calibration_pairs = 600;
     c.method.critic.steps = 600;
     c.rq1_demos = 3;
     c.dagger.max_episodes = 150;
@@ -153,15 +165,19 @@ ExperimentConfig preset(const std::string& name) {
     // MuJoCo tasks: Table III schedules. Observation sizes are those of the state observations
     // planned for them (joints, end-effector pose with 6-D rotation, gripper, object poses).
     c = table3(name, "stack", 31, 10, 32, 8, 16, 20, 60, 4, 0.99, 2, 250);
+    c.expert = "planner";
     c.rq1_demos = 30;
   } else if (name == "push_1expert") {
     c = table3(name, "push", 20, 7, 32, 2, 16, 20, 100, 4, 0.99, 1, 250);
+    c.expert = "cw";  // one expert: one sense of rotation
     c.rq1_demos = 40;
   } else if (name == "push_2experts") {
     c = table3(name, "push", 20, 7, 32, 2, 16, 20, 100, 4, 0.9, 2, 250);
+    c.expert = "alternate";  // two experts: cw and ccw on alternate episodes
     c.rq1_demos = 50;
   } else if (name == "plug") {
     c = table3(name, "plug", 31, 10, 64, 8, 64, 20, 100, 8, 0.99, 2, 500);
+    c.expert = "planner";
     c.rq1_demos = 100;
   } else {
     throw Error("unknown preset '" + name + "' (known: nav2d, nav2d_random, stack, push_1expert, push_2experts, plug)");
@@ -178,7 +194,7 @@ ExperimentConfig load_experiment_config(const std::string& path) {
     throw Error(path + ": malformed YAML: " + e.what());
   }
   try {
-    require_known_keys(j, {"preset", "policy", "train", "dagger", "method", "rq1_demos"}, "config");
+    require_known_keys(j, {"preset", "expert", "policy", "train", "dagger", "method", "rq1_demos"}, "config");
     if (!j.contains("preset")) throw Error("config: missing key 'preset' (one of nav2d, stack, push_1expert, push_2experts, plug)");
     ExperimentConfig c = preset(j.at("preset").get<std::string>());
     if (j.contains("policy")) {
@@ -194,6 +210,7 @@ ExperimentConfig load_experiment_config(const std::string& path) {
     if (j.contains("dagger")) apply_dagger(j.at("dagger"), c.dagger);
     if (j.contains("method")) apply_method(j.at("method"), c.method);
     read(j, "rq1_demos", c.rq1_demos, "config");
+    read(j, "expert", c.expert, "config");
     c.validate();
     return c;
   } catch (const Error& e) {
@@ -204,7 +221,7 @@ ExperimentConfig load_experiment_config(const std::string& path) {
 }
 
 std::string to_json_text(const ExperimentConfig& c) {
-  json j{{"preset", c.preset}, {"task", c.task}, {"policy", c.policy}, {"train", c.train},
+  json j{{"preset", c.preset}, {"task", c.task}, {"expert", c.expert}, {"policy", c.policy}, {"train", c.train},
          {"dagger", dagger_json(c.dagger)}, {"method", method_json(c.method)}, {"rq1_demos", c.rq1_demos}};
   return j.dump(2);
 }

@@ -21,6 +21,9 @@ namespace dd {
 struct ExperimentConfig {
   std::string preset;   // the preset this was built from
   std::string task;     // env name: nav2d, stack, push, plug
+  std::string expert = "mixed";  // the expert's mode everywhere the experiment needs one (demonstrations,
+                                 // interventions, RQ1): nav2d, push: cw | ccw | mixed | alternate;
+                                 // stack, plug: planner
   PolicyConfig policy;
   TrainConfig train;
   DaggerConfig dagger;

@@ -55,7 +55,10 @@ Trainer::Trainer(DiffusionPolicy& policy, const ChunkDataset& data, const TrainC
                 std::to_string(data.action_dim) + ", horizon " + std::to_string(data.horizon) +
                 ") do not match the policy config");
   if (config.fit_normalizer) policy.set_normalizers(Normalizer::fit(data.obs), Normalizer::fit(data.action_rows()));
-  state_ = std::make_unique<State>(policy, config);
+  TrainConfig resolved = config;
+  resolved.steps = config.steps_for(data.size());  // the learning-rate schedule spans the steps actually run
+  resolved.epochs = 0;
+  state_ = std::make_unique<State>(policy, resolved);
   auto& impl = state_->impl;
   state_->obs = impl.obs_tensor(data.obs);
   state_->chunks = impl.chunk_tensor(data.chunks);
@@ -104,12 +107,13 @@ float Trainer::step() {
 TrainStats train(DiffusionPolicy& policy, const ChunkDataset& data, const TrainConfig& config,
                  const ProgressFn& progress) {
   Trainer trainer(policy, data, config);
+  const int steps = config.steps_for(data.size());
   TrainStats stats;
-  stats.losses.reserve(static_cast<size_t>(config.steps));
+  stats.losses.reserve(static_cast<size_t>(steps));
   const auto start = std::chrono::steady_clock::now();
-  for (int i = 0; i < config.steps; ++i) {
+  for (int i = 0; i < steps; ++i) {
     stats.losses.push_back(trainer.step());
-    if (progress) progress(i + 1, config.steps, stats.last_mean(20));
+    if (progress) progress(i + 1, steps, stats.last_mean(20));
   }
   stats.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return stats;

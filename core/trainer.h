@@ -42,7 +42,8 @@ class Trainer {
   std::unique_ptr<State> state_;
 };
 
-/// Trains `policy` in place, continuing from its current weights with a fresh optimiser.
+/// Trains `policy` in place, continuing from its current weights with a fresh optimiser, for
+/// config.steps_for(pairs) steps.
 /// Refits the normalisers on `data` first when config.fit_normalizer. Deterministic for a fixed
 /// config.seed. Throws Error on an empty data set or shapes that do not match the policy.
 TrainStats train(DiffusionPolicy& policy, const ChunkDataset& data, const TrainConfig& config,

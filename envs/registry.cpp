@@ -38,7 +38,8 @@ std::unique_ptr<Expert> make_expert(const std::string& task, const std::string& 
     if (mode == "cw") return std::make_unique<mj::PushExpert>(mj::PushExpert::Mode::kClockwise);
     if (mode == "ccw") return std::make_unique<mj::PushExpert>(mj::PushExpert::Mode::kCounterClockwise);
     if (mode == "mixed") return std::make_unique<mj::PushExpert>(mj::PushExpert::Mode::kMixed);
-    throw Error("push expert: unknown mode '" + mode + "' (known: cw, ccw, mixed)");
+    if (mode == "alternate") return std::make_unique<mj::PushExpert>(mj::PushExpert::Mode::kAlternate);
+    throw Error("push expert: unknown mode '" + mode + "' (known: cw, ccw, mixed, alternate)");
   }
   if (task == "plug") {
     if (mode != "mixed" && mode != "planner") throw Error("plug expert: unknown mode '" + mode + "' (known: planner)");

@@ -3,7 +3,11 @@
 
 #include <nlohmann/json.hpp>
 
+#include <filesystem>
+#include <fstream>
+
 #include "core/config.h"
+#include "core/task_config.h"
 
 namespace dd {
 
@@ -75,6 +79,71 @@ TEST(TrainConfig, RejectsUnknownKeysAndBadValues) {
   EXPECT_THROW(nlohmann::json({{"stpes", 3}}).get_to(t), Error);
   t.lr = -1;
   EXPECT_THROW(t.validate(), Error);
+}
+
+TEST(TrainConfig, TheEpochRuleSetsTheStepsAndIsCapped) {
+  TrainConfig t;
+  t.steps = 123;
+  EXPECT_EQ(t.steps_for(1000), 123);  // epochs 0: the fixed budget
+  t.epochs = 10;
+  t.batch_size = 64;
+  EXPECT_EQ(t.steps_for(1000), 157);  // ceil(10 * 1000 / 64)
+  t.max_steps = 100;
+  EXPECT_EQ(t.steps_for(1000), 100);
+}
+
+namespace {
+std::string write_config(const std::string& name, const std::string& text) {
+  const std::string path = (std::filesystem::temp_directory_path() / name).string();
+  std::ofstream(path) << text;
+  return path;
+}
+}  // namespace
+
+TEST(ExperimentConfig, ThePresetsNameTheirExperts) {
+  EXPECT_EQ(preset("push_1expert").expert, "cw");
+  EXPECT_EQ(preset("push_2experts").expert, "alternate");
+  EXPECT_EQ(preset("stack").expert, "planner");
+  EXPECT_EQ(preset("nav2d").expert, "mixed");
+  EXPECT_EQ(preset("stack").method.calibration_pairs, 0);  // thresholds over every training pair
+}
+
+TEST(ExperimentConfig, ProtocolOptionsReadFromAFile) {
+  const std::string path = write_config("dd_protocol_options.yaml", R"(preset: push_2experts
+expert: ccw
+train: {from_scratch: true, epochs: 300, max_steps: 5000}
+dagger: {gate_every: step}
+method: {score_weights: raw, calibration_pairs: 500}
+)");
+  const ExperimentConfig c = load_experiment_config(path);
+  EXPECT_EQ(c.expert, "ccw");
+  EXPECT_TRUE(c.train.from_scratch);
+  EXPECT_EQ(c.train.epochs, 300);
+  EXPECT_EQ(c.train.max_steps, 5000);
+  EXPECT_EQ(c.dagger.gate_every, GateCadence::kStep);
+  EXPECT_TRUE(c.method.score_raw_weights);
+  EXPECT_EQ(c.method.calibration_pairs, 500);
+  // and they round-trip through the JSON every run writes beside its results
+  EXPECT_NE(to_json_text(c).find("\"gate_every\": \"step\""), std::string::npos);
+  EXPECT_NE(to_json_text(c).find("\"score_weights\": \"raw\""), std::string::npos);
+  std::filesystem::remove(path);
+}
+
+TEST(ExperimentConfig, BadProtocolOptionsNameTheFileAndKey) {
+  for (const auto& [text, key] : std::vector<std::pair<std::string, std::string>>{
+           {"preset: stack\ndagger: {gate_every: episode}\n", "dagger.gate_every"},
+           {"preset: stack\nmethod: {score_weights: best}\n", "method.score_weights"},
+           {"preset: stack\ntrain: {epochs: -1}\n", "train.epochs"}}) {
+    const std::string path = write_config("dd_bad_protocol.yaml", text);
+    try {
+      load_experiment_config(path);
+      ADD_FAILURE() << "accepted: " << text;
+    } catch (const Error& e) {
+      EXPECT_NE(std::string(e.what()).find(path), std::string::npos) << e.what();
+      EXPECT_NE(std::string(e.what()).find(key), std::string::npos) << e.what();
+    }
+    std::filesystem::remove(path);
+  }
 }
 
 }  // namespace dd

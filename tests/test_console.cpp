@@ -34,6 +34,7 @@ ConsoleOptions quick_options(const std::string& out, const std::string& task = "
   e.apply_quick(o.config);
   if (task != "nav2d") o.config.train.batch_size = 64;  // a screenshot test needs less than the CPU-sized preset
   o.out = out;
+  o.expert_mode = "mixed";  // the goldens were recorded with the mixed pushing expert
   return o;
 }
 

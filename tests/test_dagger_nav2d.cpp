@@ -46,7 +46,7 @@ TEST(DaggerNav2d, DiffDaggerIsNoWorseThanBcWithTheSameExpertBudget) {
     EXPECT_EQ(read_dataset(r.dataset).size(), static_cast<size_t>(c.dagger.final_demos));
     EXPECT_TRUE(fs::exists(o.out + "/queries.jsonl"));
     EXPECT_TRUE(fs::exists(o.out + "/checkpoints/update_1/policy.pt"));
-    const auto results = evaluate_rollouts(*env, *trained, 20, c.dagger.time_limit, c.dagger.patience, c.dagger.action_steps, 4242);
+    const auto results = evaluate_rollouts(*env, *trained, 20, RolloutSpec::of(c.dagger), 4242);
     success[i] = success_rate(results);
     fs::remove_all(o.out);
   }

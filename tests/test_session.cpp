@@ -3,10 +3,12 @@
 // stop at N_f, and the order of events.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <deque>
 #include <filesystem>
 
 #include "core/config.h"
+#include "core/dataset.h"
 #include "core/session.h"
 
 namespace dd {
@@ -55,6 +57,22 @@ class ForwardExpert : public Expert {
   Vec act(const Env&) override { return Vec::Ones(1); }
 };
 
+// Fails (stands still) in the episodes listed, by their count of resets; else moves forward.
+class FailingExpert : public Expert {
+ public:
+  explicit FailingExpert(std::vector<int> failing) : failing_(std::move(failing)) {}
+  std::string name() const override { return "failing"; }
+  void reset(uint64_t) override { ++episode_; }
+  Vec act(const Env&) override {
+    const bool fail = std::find(failing_.begin(), failing_.end(), episode_) != failing_.end();
+    return Vec::Constant(1, fail ? 0.f : 1.f);
+  }
+
+ private:
+  std::vector<int> failing_;
+  int episode_ = 0;
+};
+
 // Decides from a script of verdicts; its chunks move at `speed`. Counts updates.
 class ScriptedMethod : public Method {
  public:
@@ -62,9 +80,10 @@ class ScriptedMethod : public Method {
       : verdicts_(std::move(verdicts)), speed_(speed), gated_(gated) {}
   std::string name() const override { return "scripted"; }
   bool gated() const override { return gated_; }
-  UpdateReport update(const std::vector<Episode>& expert, const std::vector<RecordedEpisode>&, const TrainConfig&,
+  UpdateReport update(const std::vector<Episode>& expert, const std::vector<RecordedEpisode>& robot, const TrainConfig&,
                       const ProgressFn& progress) override {
     update_sizes.push_back(static_cast<int>(expert.size()));
+    last_robot = robot;
     if (progress) progress(1, 1, 0.0);
     UpdateReport r;
     r.threshold = 0.5f;
@@ -82,6 +101,7 @@ class ScriptedMethod : public Method {
   float threshold() const override { return 0.5f; }
   void save(const std::string&) const override {}
   std::vector<int> update_sizes;
+  std::vector<RecordedEpisode> last_robot;  // the robot data of the last update
 
  private:
   std::deque<bool> verdicts_;
@@ -397,6 +417,80 @@ TEST(Session, RejectsBadSchedules) {
   DaggerConfig c = small_config();
   c.final_demos = 0;
   EXPECT_THROW(DaggerSession(env, expert, method, c, no_training()), Error);
+}
+
+}  // namespace dd
+
+namespace dd {
+
+TEST(Session, AFailedExpertEpisodeIsRecordedButNotTrainedOnOrCounted) {
+  LineEnv env;
+  FailingExpert expert({2});  // the second demonstration stands still and times out
+  ScriptedMethod method({});
+  DaggerConfig c = small_config();
+  c.initial_demos = 2;
+  c.final_demos = 2;
+  const std::string path = (std::filesystem::temp_directory_path() / "dd_session_failed_expert.hdf5").string();
+  std::filesystem::remove(path);
+  {
+    DatasetWriter writer(path, R"({"env_name": "line"})");
+    DaggerSession s(env, expert, method, c, no_training(), &writer);
+    run_to_end(s);
+    EXPECT_EQ(s.expert_failures(), 1);
+    EXPECT_EQ(s.expert_demos(), 2);                  // the failure did not count toward N_i / N_f
+    ASSERT_EQ(method.update_sizes.size(), 1u);
+    EXPECT_EQ(method.update_sizes[0], 2);            // nor reach training
+    EXPECT_EQ(s.episode(), 3);
+  }
+  const auto episodes = read_dataset(path);
+  ASSERT_EQ(episodes.size(), 3u);                    // but it is in the data set, flagged
+  EXPECT_TRUE(episodes[0].success);
+  EXPECT_FALSE(episodes[1].success);
+  EXPECT_TRUE(episodes[2].success);
+  std::filesystem::remove(path);
+}
+
+TEST(Session, TheRobotsPartOfAnInterventionIsRobotDataEndingInFailure) {
+  LineEnv env;
+  ForwardExpert expert;
+  ScriptedMethod method({true, true});  // the first robot episode asks after 2 decisions (4 steps)
+  DaggerConfig c = small_config();
+  c.final_demos = 2;
+  DaggerSession s(env, expert, method, c, no_training());
+  run_to_end(s);
+  ASSERT_EQ(s.interventions(), 1);
+  ASSERT_EQ(method.last_robot.size(), 1u);
+  const RecordedEpisode& part = method.last_robot[0];
+  EXPECT_EQ(part.steps(), 2);  // the query came at the 2nd decision, after the first chunk of T_a = 2 steps
+  EXPECT_FALSE(part.success);
+  EXPECT_EQ(part.source, "robot");
+}
+
+TEST(Session, GatingEveryStepScoresEachStepButExecutesWholeChunks) {
+  LineEnv env;
+  ForwardExpert expert;
+  ScriptedMethod method(std::deque<bool>(200, false));
+  DaggerConfig c = small_config();
+  c.final_demos = 2;
+  c.action_steps = 4;
+  c.gate_every = GateCadence::kStep;
+  DaggerSession s(env, expert, method, c, no_training());
+  Recorder rec;
+  s.add_observer(rec.fn());
+  while (s.episode() < 2 || s.in_episode()) s.tick();  // the first robot episode: 10 steps to the goal
+  EXPECT_EQ(rec.count(EventKind::kDecision), 10);   // one scored decision per robot step
+  EXPECT_EQ(env.steps(), 10);
+
+  // K counts steps: two violations in a row are two steps.
+  ScriptedMethod asking({false, true, true});
+  LineEnv env2;
+  DaggerSession s2(env2, expert, asking, c, no_training());
+  Recorder rec2;
+  s2.add_observer(rec2.fn());
+  run_to_end(s2);
+  ASSERT_EQ(rec2.count(EventKind::kQuery), 1);
+  for (const auto& e : rec2.events)
+    if (e.kind == EventKind::kQuery) EXPECT_EQ(e.step, 2);  // after the 3rd decision, at the 3rd step
 }
 
 }  // namespace dd

@@ -286,7 +286,7 @@ Console::Console(const ConsoleOptions& options) : s_(std::make_unique<State>()) 
   s.env = make_env(c.task);
   s.nav = dynamic_cast<Nav2dEnv*>(s.env.get());
   s.arm = dynamic_cast<mj::ArmEnv*>(s.env.get());
-  s.scripted = make_expert(c.task, s.o.expert_mode);
+  s.scripted = make_expert(c.task, s.o.expert_mode.empty() ? c.expert : s.o.expert_mode);
   s.expert = std::make_unique<ConsoleExpert>(
       *s.scripted, [&s] { return s.operator_drives() && !s.o.scripted_operator; },
       [&s](const Env& env) -> Vec {

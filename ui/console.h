@@ -20,7 +20,7 @@ namespace dd::ui {
 struct ConsoleOptions {
   ExperimentConfig config;           // task, policy, training, DAgger schedule, query rule
   std::string method = "diff";       // diff | ensemble | thrifty | bc
-  std::string expert_mode = "mixed";
+  std::string expert_mode;  // empty: the config's expert
   std::string out;                   // folder: dataset.hdf5, session.jsonl, checkpoints/
   bool pause_on_query = true;        // false: the scripted expert answers a query at once
   bool scripted_operator = false;    // the scripted expert plays the operator (headless runs)

@@ -17,6 +17,9 @@ struct DiffusionPolicy::Impl {
   // Exponential moving average of the weights, used for sampling and losses. Mutable: torch modules
   // have no const forward, and inference does not change them.
   mutable nn::ConditionalUnet1D ema{nullptr};
+  ScoreWeights score_weights = ScoreWeights::kEma;
+  /// The network that scores the expected loss (a handle sharing the module).
+  nn::ConditionalUnet1D scorer() const { return score_weights == ScoreWeights::kRaw ? model : ema; }
   nn::NoiseScheduler scheduler;
   Normalizer obs_norm, act_norm;
 

@@ -27,6 +27,7 @@ std::string PushExpert::name() const {
     case Mode::kClockwise: return "push_cw";
     case Mode::kCounterClockwise: return "push_ccw";
     case Mode::kMixed: return "push_mixed";
+    case Mode::kAlternate: return "push_alternate";
   }
   return "push";
 }
@@ -36,6 +37,8 @@ void PushExpert::reset(uint64_t seed) {
   if (mode_ == Mode::kMixed) {
     std::mt19937_64 rng(seed * 7919 + 3);
     current_ = std::uniform_int_distribution<int>(0, 1)(rng) ? Mode::kClockwise : Mode::kCounterClockwise;
+  } else if (mode_ == Mode::kAlternate) {
+    current_ = seed % 2 == 0 ? Mode::kClockwise : Mode::kCounterClockwise;
   }
   phase_ = Phase::kChoose;
   pushed_ = 0;

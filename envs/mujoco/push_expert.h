@@ -16,13 +16,15 @@ namespace dd::mj {
 
 class PushExpert : public Expert {
  public:
-  enum class Mode { kClockwise, kCounterClockwise, kMixed };
+  /// kMixed draws the sense from the episode's seed; kAlternate turns clockwise on even episode seeds
+  /// and counter-clockwise on odd ones, so consecutive episodes alternate (the two-expert data sets).
+  enum class Mode { kClockwise, kCounterClockwise, kMixed, kAlternate };
   explicit PushExpert(Mode mode = Mode::kMixed) : mode_(mode), current_(mode) {}
 
   std::string name() const override;
   void reset(uint64_t seed) override;
   Vec act(const Env& env) override;
-  /// The sense of this episode (never kMixed after reset).
+  /// The sense of this episode (never kMixed or kAlternate after reset).
   Mode episode_mode() const { return current_; }
 
   double speed = 0.035;       // stick travel per step when repositioning [m]

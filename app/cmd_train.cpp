@@ -1,0 +1,48 @@
+// diffdagger train: behaviour cloning on demonstrations (a data set, or collected on the spot), with
+// rollouts of the trained policy and a learning curve over training steps.
+#include <fmt/format.h>
+
+#include "app/commands.h"
+#include "app/experiments.h"
+#include "core/task_config.h"
+
+namespace dd::app {
+
+Command add_train(CLI::App& app) {
+  auto* cmd = app.add_subcommand("train", "Train a policy on demonstrations (BC), save it, and roll it out");
+  struct Opts {
+    std::string task = "stack", config, expert;
+    TrainOptions train;
+    int steps = 0, batch = 0;
+    uint64_t seed = 0;
+  };
+  auto o = std::make_shared<Opts>();
+  cmd->add_option("--task", o->task, "task or preset: nav2d, nav2d_random, stack, push_1expert, push_2experts, plug")->capture_default_str();
+  cmd->add_option("--config", o->config, "YAML config file overriding the task's preset");
+  cmd->add_option("--data", o->train.data, "data set to train on (robomimic layout); without it, --demos are collected");
+  cmd->add_option("--demos", o->train.demos, "the first N successful expert episodes (0: all)")->capture_default_str()->check(CLI::NonNegativeNumber);
+  cmd->add_option("--expert", o->expert, "expert mode when collecting (default: the preset's)");
+  cmd->add_option("--out", o->train.out, "output folder: policy.pt, curve.csv, losses.csv, summary.json, config.json")->required();
+  cmd->add_option("--steps", o->steps, "gradient steps (default: the preset's train.steps)")->check(CLI::NonNegativeNumber);
+  cmd->add_option("--batch", o->batch, "batch size (default: the preset's)")->check(CLI::NonNegativeNumber);
+  cmd->add_option("--eval", o->train.eval_episodes, "rollouts of the trained policy")->capture_default_str()->check(CLI::NonNegativeNumber);
+  cmd->add_option("--eval-every", o->train.eval_every, "also roll out every this many steps (a curve over training)")->check(CLI::NonNegativeNumber);
+  cmd->add_option("--eval-seed", o->train.eval_seed, "seed of the first rollout")->capture_default_str();
+  cmd->add_option("--seed", o->seed, "seed of the network, the minibatches and the collected demonstrations")->capture_default_str();
+  return [o] {
+    ExperimentConfig c = o->config.empty() ? preset(o->task == "push" ? "push_2experts" : o->task) : resolve_config("", o->config);
+    if (!o->expert.empty()) c.expert = o->expert;
+    if (o->steps > 0) c.train.steps = o->steps;
+    if (o->batch > 0) c.train.batch_size = o->batch;
+    c.train.seed = o->seed;
+    c.dagger.seed = o->seed;
+    const TrainRunResult r = run_train(c, o->train);
+    fmt::print("trained on {} demonstrations ({} pairs) for {} steps in {:.1f} s; final loss {:.4g}", r.demos, r.pairs, c.train.steps,
+               r.train_s, r.final_loss);
+    if (o->train.eval_episodes > 0) fmt::print("; success {:.2f} over {} rollouts", r.success, o->train.eval_episodes);
+    fmt::print("\npolicy in {}/policy.pt\n", o->train.out);
+    return 0;
+  };
+}
+
+}  // namespace dd::app

@@ -1,0 +1,231 @@
+// The evaluation protocol's fairness between methods, with small real networks on synthetic data:
+// Thrifty's second pass trains its critic alone, the ensembles act with a member that saw all the
+// data, the loss can be scored with either set of weights, failure prediction leaves empty classes
+// undefined, and rollouts gate per chunk or per step like the session.
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "core/ensemble.h"
+#include "core/evaluation.h"
+#include "core/method.h"
+#include "core/normalizer.h"
+#include "core/policy.h"
+#include "core/synthetic.h"
+#include "core/trainer.h"
+
+namespace dd {
+namespace {
+
+PolicyConfig tiny_config() {
+  PolicyConfig c;
+  c.obs_dim = 2;
+  c.action_dim = 2;
+  c.horizon = 8;
+  c.action_steps = 4;
+  c.unet = unet_preset("tiny");
+  return c;
+}
+
+TrainConfig short_training(int steps = 40) {
+  TrainConfig t;
+  t.steps = steps;
+  t.batch_size = 32;
+  t.lr = 1e-3;
+  t.warmup_steps = 5;
+  return t;
+}
+
+MethodConfig small_method() {
+  MethodConfig m;
+  m.members = 3;
+  m.loss_samples = 32;
+  m.calibration_pairs = 64;
+  m.critic.steps = 30;
+  m.critic.hidden = 16;
+  return m;
+}
+
+// Robot data whose episodes fail, so that the critic has something to learn that demonstrations lack.
+std::vector<RecordedEpisode> failing_robot_data(const std::vector<Episode>& like) {
+  std::vector<RecordedEpisode> out;
+  for (int i = 0; i < 4; ++i) {
+    RecordedEpisode r;
+    r.obs = like[static_cast<size_t>(i)].obs.array() + 0.5f;
+    r.actions = -like[static_cast<size_t>(i)].actions;
+    r.success = false;
+    r.source = "robot";
+    out.push_back(r);
+  }
+  return out;
+}
+
+}  // namespace
+
+TEST(Methods, ThriftysRiskRefitLeavesItsPoliciesAlone) {
+  const auto episodes = bimodal_episodes(12, 10, 2, 2, /*seed=*/5);
+  auto m = make_method("thrifty", tiny_config(), small_method(), 1);
+  m->update(episodes, {}, short_training());
+  const Vec obs = Vec::Constant(2, 0.2f);
+  const MethodDecision before = m->decide(obs, 77);
+  const double seconds = m->refit_risk(episodes, failing_robot_data(episodes));
+  EXPECT_GT(seconds, 0.0);
+  const MethodDecision after = m->decide(obs, 77);
+  // same members, same seed: the same chunks and spread; only the critic moved
+  EXPECT_TRUE(before.chunk.isApprox(after.chunk, 1e-6f));
+  EXPECT_FLOAT_EQ(before.score, after.score);
+  EXPECT_NE(before.risk_q, after.risk_q);
+  // the other methods have no risk to refit
+  auto diff = make_method("diff", tiny_config(), small_method(), 1);
+  EXPECT_EQ(diff->refit_risk(episodes, {}), 0.0);
+}
+
+TEST(Methods, TheEnsemblesActingMemberIsTrainedOnAllTheData) {
+  // Three episodes with disjoint observation ranges: a bootstrap resample usually misses one.
+  auto episodes = bimodal_episodes(3, 10, 2, 2, /*seed=*/9);
+  for (size_t i = 0; i < episodes.size(); ++i) episodes[i].obs.array() += 3.0f * static_cast<float>(i);
+  PolicyEnsemble ensemble(tiny_config(), 8, /*seed=*/2);
+  ensemble.train(episodes, short_training(2));
+  std::vector<Episode> all = episodes;
+  const Normalizer full = Normalizer::fit(ChunkDataset::from_episodes(all, 8).obs);
+  EXPECT_TRUE(ensemble.member(0).obs_normalizer().scale().isApprox(full.scale()));
+  EXPECT_TRUE(ensemble.member(0).obs_normalizer().offset().isApprox(full.offset()));
+  int bootstrapped_differently = 0;
+  for (int i = 1; i < ensemble.size(); ++i) {
+    bootstrapped_differently += !ensemble.member(i).obs_normalizer().scale().isApprox(full.scale());
+  }
+  EXPECT_GT(bootstrapped_differently, 0);  // resamples: P(all 7 hold the first and the last episode) < 0.004
+}
+
+TEST(Methods, TheLossIsScoredWithTheChosenWeights) {
+  const auto episodes = bimodal_episodes(12, 10, 2, 2, /*seed=*/5);
+  const ChunkDataset data = ChunkDataset::from_episodes(episodes, 8);
+  DiffusionPolicy p(tiny_config(), 4, false);
+  TrainConfig t = short_training(60);
+  t.ema_max_decay = 0.9;  // an EMA that lags visibly behind the raw weights
+  train(p, data, t);
+  const Vec obs = data.obs.row(0).transpose();
+  const Mat chunk = data.chunk(0);
+  const float ema = p.expected_loss(obs, chunk, 5, 64);
+  p.set_score_weights(ScoreWeights::kRaw);
+  const float raw = p.expected_loss(obs, chunk, 5, 64);
+  EXPECT_NE(ema, raw);
+  p.set_score_weights(ScoreWeights::kEma);
+  EXPECT_FLOAT_EQ(p.expected_loss(obs, chunk, 5, 64), ema);
+  // sampling always uses the EMA weights
+  const Mat sampled = p.sample(obs, 3);
+  p.set_score_weights(ScoreWeights::kRaw);
+  EXPECT_TRUE(p.sample(obs, 3).isApprox(sampled));
+}
+
+TEST(Methods, ReinitialisingKeepsTheNormalisersAndDrawsNewWeights) {
+  const auto episodes = bimodal_episodes(12, 10, 2, 2, /*seed=*/5);
+  DiffusionPolicy p(tiny_config(), 4, false);
+  train(p, ChunkDataset::from_episodes(episodes, 8), short_training(30));
+  const Vec obs = Vec::Constant(2, 0.1f);
+  const Mat trained = p.sample(obs, 3);
+  const Vec scale = p.obs_normalizer().scale();
+  p.reinitialize(99);
+  EXPECT_TRUE(p.obs_normalizer().scale().isApprox(scale));
+  EXPECT_FALSE(p.sample(obs, 3).isApprox(trained, 1e-3f));
+}
+
+TEST(FailurePrediction, EmptyClassesAreUndefinedNotZero) {
+  std::vector<RolloutResult> all_succeed(5);
+  for (auto& r : all_succeed) r.success = true;
+  all_succeed[0].queried = true;
+  FailurePrediction p = failure_prediction(all_succeed);
+  EXPECT_TRUE(std::isnan(p.tpr));  // no failure to catch
+  EXPECT_DOUBLE_EQ(p.tnr, 0.8);
+  EXPECT_EQ(p.fp, 1);
+  EXPECT_EQ(p.tn, 4);
+  EXPECT_DOUBLE_EQ(p.f1, 0.0);     // 2TP / (2TP + FP + FN) = 0 / 1
+  EXPECT_DOUBLE_EQ(p.accuracy, 0.8);
+
+  std::vector<RolloutResult> all_fail_unqueried(3);
+  p = failure_prediction(all_fail_unqueried);
+  EXPECT_TRUE(std::isnan(p.tnr));
+  EXPECT_DOUBLE_EQ(p.tpr, 0.0);
+  EXPECT_EQ(p.fn, 3);
+
+  std::vector<RolloutResult> all_succeed_unqueried(2);
+  for (auto& r : all_succeed_unqueried) r.success = true;
+  p = failure_prediction(all_succeed_unqueried);
+  EXPECT_TRUE(std::isnan(p.f1));   // nothing positive at all: 0 / 0
+  EXPECT_DOUBLE_EQ(p.accuracy, 1.0);
+}
+
+namespace {
+
+// A point that moves +1 per step and succeeds at x >= 12; counts decisions.
+class CountingEnv : public Env {
+ public:
+  std::string name() const override { return "counting"; }
+  int obs_dim() const override { return 1; }
+  int action_dim() const override { return 1; }
+  int time_limit() const override { return limit_; }
+  void set_time_limit(int s) override { limit_ = s; }
+  double control_hz() const override { return 10; }
+  void reset(uint64_t) override { x_ = 0, steps_ = 0; }
+  Vec observation() const override { return Vec::Constant(1, x_); }
+  StepResult step(const Vec& a) override {
+    x_ += a[0];
+    ++steps_;
+    StepResult r;
+    r.success = success();
+    r.done = r.success || steps_ >= limit_;
+    return r;
+  }
+  bool success() const override { return x_ >= 12; }
+  int steps() const override { return steps_; }
+  std::vector<double> save_state() const override { return {}; }
+  void restore_state(const std::vector<double>&) override {}
+
+ private:
+  float x_ = 0;
+  int steps_ = 0, limit_ = 100;
+};
+
+class AlwaysViolates : public Method {
+ public:
+  explicit AlwaysViolates(bool gated) : gated_(gated) {}
+  std::string name() const override { return "violates"; }
+  bool gated() const override { return gated_; }
+  UpdateReport update(const std::vector<Episode>&, const std::vector<RecordedEpisode>&, const TrainConfig&, const ProgressFn&) override {
+    return {};
+  }
+  MethodDecision decide(const Vec&, uint64_t) override {
+    MethodDecision d;
+    d.chunk = Mat::Ones(8, 1);
+    d.violation = true;
+    return d;
+  }
+  float threshold() const override { return 0; }
+  void save(const std::string&) const override {}
+
+ private:
+  bool gated_;
+};
+
+}  // namespace
+
+TEST(Rollouts, TheGateScoresPerChunkOrPerStep) {
+  CountingEnv env;
+  RolloutSpec spec{100, 3, 4, GateCadence::kChunk};
+  AlwaysViolates gated(true), bc(false);
+  auto r = evaluate_rollouts(env, gated, 1, spec, 0).front();
+  EXPECT_EQ(r.decisions, 3);  // 12 steps in chunks of 4
+  EXPECT_TRUE(r.success);
+  EXPECT_TRUE(r.queried);
+  EXPECT_EQ(r.first_query_step, 8);  // the 3rd chunk, K = 3 chunks
+  spec.gate_every = GateCadence::kStep;
+  r = evaluate_rollouts(env, gated, 1, spec, 0).front();
+  EXPECT_EQ(r.decisions, 12);  // one scored chunk per step
+  EXPECT_EQ(r.steps, 12);      // executing the same actions
+  EXPECT_EQ(r.first_query_step, 2);  // K = 3 steps
+  r = evaluate_rollouts(env, bc, 1, spec, 0).front();
+  EXPECT_EQ(r.decisions, 3);  // a method that never asks has nothing to score between chunks
+  EXPECT_FALSE(r.queried);
+}
+
+}  // namespace dd
