@@ -13,7 +13,7 @@ Command add_train(CLI::App& app) {
   struct Opts {
     std::string task = "stack", config, expert;
     TrainOptions train;
-    int steps = 0, batch = 0;
+    int steps = -1, batch = 0;  // -1: the preset's
     uint64_t seed = 0;
   };
   auto o = std::make_shared<Opts>();
@@ -23,24 +23,36 @@ Command add_train(CLI::App& app) {
   cmd->add_option("--demos", o->train.demos, "the first N successful expert episodes (0: all)")->capture_default_str()->check(CLI::NonNegativeNumber);
   cmd->add_option("--expert", o->expert, "expert mode when collecting (default: the preset's)");
   cmd->add_option("--out", o->train.out, "output folder: policy.pt, curve.csv, losses.csv, summary.json, config.json")->required();
-  cmd->add_option("--steps", o->steps, "gradient steps (default: the preset's train.steps)")->check(CLI::NonNegativeNumber);
+  cmd->add_option("--steps", o->steps, "gradient steps (default: the preset's train.steps; 0 with --init: roll out only)")->check(CLI::NonNegativeNumber);
   cmd->add_option("--batch", o->batch, "batch size (default: the preset's)")->check(CLI::NonNegativeNumber);
   cmd->add_option("--eval", o->train.eval_episodes, "rollouts of the trained policy")->capture_default_str()->check(CLI::NonNegativeNumber);
   cmd->add_option("--eval-every", o->train.eval_every, "also roll out every this many steps (a curve over training)")->check(CLI::NonNegativeNumber);
+  cmd->add_option("--init", o->train.init, "checkpoint to start from (with --steps 0: only roll it out)");
   cmd->add_option("--eval-seed", o->train.eval_seed, "seed of the first rollout")->capture_default_str();
   cmd->add_option("--seed", o->seed, "seed of the network, the minibatches and the collected demonstrations")->capture_default_str();
   return [o] {
     ExperimentConfig c = o->config.empty() ? preset(o->task == "push" ? "push_2experts" : o->task) : resolve_config("", o->config);
     if (!o->expert.empty()) c.expert = o->expert;
-    if (o->steps > 0) c.train.steps = o->steps;
+    if (o->steps >= 0) c.train.steps = o->steps;
     if (o->batch > 0) c.train.batch_size = o->batch;
     c.train.seed = o->seed;
     c.dagger.seed = o->seed;
     const TrainRunResult r = run_train(c, o->train);
-    fmt::print("trained on {} demonstrations ({} pairs) for {} steps in {:.1f} s; final loss {:.4g}", r.demos, r.pairs, c.train.steps,
-               r.train_s, r.final_loss);
+    fmt::print("trained on {} demonstrations ({} pairs) for {} steps in {:.1f} s; final loss {:.4g}", r.demos, r.pairs,
+               c.train.steps_for(r.pairs), r.train_s, r.final_loss);
     if (o->train.eval_episodes > 0) fmt::print("; success {:.2f} over {} rollouts", r.success, o->train.eval_episodes);
     fmt::print("\npolicy in {}/policy.pt\n", o->train.out);
+    return 0;
+  };
+}
+
+Command add_curves(CLI::App& app) {
+  auto* cmd = app.add_subcommand("curves", "Gather `train` runs (one per subfolder) into learning-curve CSV and PNG files");
+  auto dir = std::make_shared<std::string>();
+  cmd->add_option("dir", *dir, "folder whose subfolders are train --out folders")->required();
+  return [dir] {
+    const int n = write_learning_curves(*dir);
+    fmt::print("{} runs: {}/curves.csv, {}/success_vs_demos.png, {}/success_vs_steps.png\n", n, *dir, *dir, *dir);
     return 0;
   };
 }

@@ -28,6 +28,8 @@ Command add_render(CLI::App& app);
 Command add_collect(CLI::App& app);
 /// `train`: behaviour cloning on demonstrations, with rollouts and a learning curve.
 Command add_train(CLI::App& app);
+/// `curves DIR`: learning curves from the train runs in DIR.
+Command add_curves(CLI::App& app);
 /// `inspect`: print a checkpoint's config, parameter count and normalisers.
 Command add_inspect(CLI::App& app);
 

@@ -3,7 +3,10 @@
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>
 
+#include <algorithm>
 #include <chrono>
+#include <cstdio>
+#include <tuple>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -58,6 +61,18 @@ std::vector<Episode> collect_demos(const std::string& task, const std::string& m
     const RecordedEpisode ep = expert_episode(*env, *expert, seed * 1000033ull + 777 + static_cast<uint64_t>(e));
     if (ep.success) out.push_back(ep.all_steps());
   }
+  return out;
+}
+
+// "success 12, held 3, not grasped 1": how the rollouts ended, most frequent first.
+std::string outcome_counts(const std::vector<RolloutResult>& results) {
+  std::map<std::string, int> n;
+  for (const auto& r : results) ++n[r.outcome];
+  std::vector<std::pair<int, std::string>> sorted;
+  for (const auto& [k, v] : n) sorted.emplace_back(-v, k);
+  std::sort(sorted.begin(), sorted.end());
+  std::string out;
+  for (const auto& [v, k] : sorted) out += fmt::format("{}{} {}", out.empty() ? "" : "; ", k, -v);
   return out;
 }
 
@@ -187,13 +202,14 @@ TrainRunResult run_train(const ExperimentConfig& config, const TrainOptions& o) 
   write_text(o.out + "/config.json", to_json_text(config) + "\n");
 
   DiffusionPolicy policy(config.policy, config.train.seed);
+  if (!o.init.empty()) policy.load(o.init);
   const ChunkDataset data = ChunkDataset::from_episodes(demos, config.policy.horizon);
   result.pairs = data.size();
   auto env = make_env(config.task);
   auto actor = act_with(policy);
   const DaggerConfig& d = config.dagger;
   std::ofstream curve_csv(o.out + "/curve.csv");
-  curve_csv << "step,success_rate,episodes,demos\n";
+  curve_csv << "step,success_rate,episodes,demos,outcomes\n";
   auto evaluate = [&](int step) {
     const auto t = std::chrono::steady_clock::now();
     std::vector<RolloutResult> results;
@@ -204,13 +220,15 @@ TrainRunResult run_train(const ExperimentConfig& config, const TrainOptions& o) 
     result.eval_s += std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count();
     result.curve.emplace_back(step, success_rate(results));
     result.success = success_rate(results);
-    curve_csv << fmt::format("{},{:.4f},{},{}\n", step, result.success, o.eval_episodes, result.demos) << std::flush;
-    if (!o.quiet) fmt::print(stderr, "after {} steps: success {:.2f} over {} rollouts\n", step, result.success, o.eval_episodes);
+    const std::string outcomes = outcome_counts(results);
+    curve_csv << fmt::format("{},{:.4f},{},{},\"{}\"\n", step, result.success, o.eval_episodes, result.demos, outcomes) << std::flush;
+    if (!o.quiet)
+      fmt::print(stderr, "after {} steps: success {:.2f} over {} rollouts ({})\n", step, result.success, o.eval_episodes, outcomes);
   };
 
   std::vector<float> losses;
   const int steps = config.train.steps_for(data.size());
-  {
+  if (steps > 0) {
     Trainer trainer(policy, data, config.train);
     ProgressBar bar(fmt::format("train {} on {} demonstrations ({} pairs)", config.task, result.demos, result.pairs), "loss");
     const auto t = std::chrono::steady_clock::now();
@@ -225,7 +243,7 @@ TrainRunResult run_train(const ExperimentConfig& config, const TrainOptions& o) 
   }
   TrainStats stats;
   stats.losses = losses;
-  result.final_loss = stats.last_mean(100);
+  result.final_loss = losses.empty() ? NAN : stats.last_mean(100);
   policy.save(o.out + "/policy.pt");
   std::string loss_csv = "step,loss\n";
   for (size_t i = 0; i < losses.size(); ++i) loss_csv += fmt::format("{},{:.6g}\n", i + 1, losses[i]);
@@ -238,6 +256,82 @@ TrainRunResult run_train(const ExperimentConfig& config, const TrainOptions& o) 
                                {"eval_seed", o.eval_seed}};
   write_text(o.out + "/summary.json", summary.dump(2) + "\n");
   return result;
+}
+
+int write_learning_curves(const std::string& dir) {
+  struct Run {
+    std::string cell, task, expert;
+    int demos = 0, steps = 0, episodes = 0;
+    double success = NAN;
+    std::vector<std::pair<double, double>> curve;
+  };
+  std::vector<Run> runs;
+  if (!fs::is_directory(dir)) throw Error(dir + ": no such folder");
+  for (const auto& entry : fs::directory_iterator(dir)) {
+    const std::string summary = entry.path().string() + "/summary.json";
+    if (!entry.is_directory() || !fs::exists(summary)) continue;
+    Run r;
+    r.cell = entry.path().filename().string();
+    try {
+      std::ifstream f(summary);
+      const nlohmann::json j = nlohmann::json::parse(f);
+      r.task = j.at("task").get<std::string>();
+      r.expert = j.at("expert").get<std::string>();
+      r.demos = j.at("demos").get<int>();
+      r.steps = j.at("steps").get<int>();
+      r.episodes = j.at("episodes").get<int>();
+      r.success = j.at("success_rate").get<double>();
+    } catch (const std::exception& e) {
+      throw Error(summary + ": not a train summary (" + e.what() + ")");
+    }
+    std::ifstream c(entry.path().string() + "/curve.csv");
+    std::string line;
+    std::getline(c, line);  // header
+    while (std::getline(c, line)) {
+      double step = 0, success = 0;
+      if (std::sscanf(line.c_str(), "%lf,%lf", &step, &success) == 2) r.curve.emplace_back(step, success);
+    }
+    if (r.episodes > 0) runs.push_back(std::move(r));
+  }
+  std::sort(runs.begin(), runs.end(), [](const Run& a, const Run& b) {
+    return std::tie(a.task, a.expert, a.demos, a.steps, a.cell) < std::tie(b.task, b.expert, b.demos, b.steps, b.cell);
+  });
+  std::string csv = "cell,task,expert,demos,steps,success_rate,episodes\n";
+  for (const Run& r : runs)
+    csv += fmt::format("{},{},{},{},{},{:.3f},{}\n", r.cell, r.task, r.expert, r.demos, r.steps, r.success, r.episodes);
+  write_text(dir + "/curves.csv", csv);
+
+  const ui::Rgb palette[] = {{60, 110, 210}, {235, 120, 50}, {60, 160, 90}, {200, 60, 60}, {150, 90, 190}, {120, 120, 120}};
+  ui::LinePanel by_demos;
+  by_demos.title = "BC success against demonstrations";
+  by_demos.x_label = "demonstrations";
+  by_demos.y_label = "success rate";
+  by_demos.y_min = 0, by_demos.y_max = 1;
+  std::map<std::string, size_t> line_of;  // task/expert/steps -> series
+  for (const Run& r : runs) {
+    const std::string key = fmt::format("{} ({}), {} steps", r.task, r.expert, r.steps);
+    if (!line_of.count(key)) {
+      line_of[key] = by_demos.series.size();
+      by_demos.series.push_back({key, {}, {}, palette[by_demos.series.size() % 6]});
+    }
+    auto& s = by_demos.series[line_of[key]];
+    s.x.push_back(r.demos);
+    s.y.push_back(r.success);
+  }
+  ui::LinePanel by_steps;
+  by_steps.title = "BC success against training steps";
+  by_steps.x_label = "training steps";
+  by_steps.y_label = "success rate";
+  by_steps.y_min = 0, by_steps.y_max = 1;
+  for (const Run& r : runs) {
+    if (r.curve.size() < 2) continue;
+    ui::LineSeries s{fmt::format("{} ({}), {} demos", r.task, r.expert, r.demos), {}, {}, palette[by_steps.series.size() % 6]};
+    for (const auto& [step, success] : r.curve) s.x.push_back(step), s.y.push_back(success);
+    by_steps.series.push_back(std::move(s));
+  }
+  ui::write_png(dir + "/success_vs_demos.png", ui::hstack({ui::draw_lines(by_demos)}, fmt::format("{} runs; rollouts per point in curves.csv", runs.size())));
+  if (!by_steps.series.empty()) ui::write_png(dir + "/success_vs_steps.png", ui::hstack({ui::draw_lines(by_steps)}));
+  return static_cast<int>(runs.size());
 }
 
 void EvalOptions::apply_quick(ExperimentConfig& c) {
@@ -317,7 +411,7 @@ void run_eval(const ExperimentConfig& config, const EvalOptions& o) {
           risk_data_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count();
           risk_data_s += m->refit_risk(demos, robot);
         }
-        row.risk_data.push_back(risk_data_s);
+        if (name == "thrifty") row.risk_data.push_back(risk_data_s);
         std::vector<RolloutResult> results;
         {
           ProgressBar bar(fmt::format("[seed {}] RQ1 {:8} rollouts", s, name), "success");

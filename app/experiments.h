@@ -44,6 +44,7 @@ struct TrainOptions {
   std::string out;          // folder: policy.pt, curve.csv, losses.csv, summary.json
   int eval_episodes = 0;    // rollouts of the trained policy (0: none)
   int eval_every = 0;       // also roll out every this many steps, for a curve over training (0: at the end only)
+  std::string init;         // a checkpoint to start from (with 0 steps: only roll it out)
   uint64_t eval_seed = kTrainEvalSeed;
   bool quiet = false;
   static constexpr uint64_t kTrainEvalSeed = 950000;  // rollouts start here: never a demonstration's seed
@@ -60,6 +61,12 @@ struct TrainRunResult {
 /// Trains one policy with the config's network and budget (train.steps at train.batch_size) on the
 /// demonstrations, saves it and rolls it out. Only successful episodes' expert steps are used.
 TrainRunResult run_train(const ExperimentConfig& config, const TrainOptions& options);
+
+/// `diffdagger curves DIR`: gathers the `train` runs in DIR's subfolders (summary.json, curve.csv) into
+/// DIR/curves.csv, DIR/success_vs_demos.png (final success against demonstrations, one line per task
+/// and expert) and DIR/success_vs_steps.png (success against training steps, one line per run).
+/// Returns the number of runs found.
+int write_learning_curves(const std::string& dir);
 
 /// `diffdagger eval`: RQ1, RQ2, RQ3 for every method.
 struct EvalOptions {

@@ -28,6 +28,7 @@ int main(int argc, char** argv) {
   add(dd::app::add_collect);
   add(dd::app::add_eval);
   add(dd::app::add_train);
+  add(dd::app::add_curves);
   add(dd::app::add_dataset);
   add(dd::app::add_bimodal);
   add(dd::app::add_inspect);

@@ -43,6 +43,9 @@ class Env {
   /// Applies one action (action_dim) for one control step.
   virtual StepResult step(const Vec& action) = 0;
   virtual bool success() const = 0;
+  /// A short word on how far the episode got (for failure breakdowns): "success", or a task's
+  /// stage such as "not grasped", "dropped", "held"; "failure" where a task says no more.
+  virtual std::string outcome() const { return success() ? "success" : "failure"; }
   /// Steps taken in this episode.
   virtual int steps() const = 0;
 

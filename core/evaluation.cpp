@@ -48,6 +48,7 @@ std::vector<RolloutResult> evaluate_rollouts(Env& env, Method& method, int episo
     }
     r.success = env.success();
     r.steps = env.steps();
+    r.outcome = env.outcome();
     if (recorded) {
       RecordedEpisode ep;
       ep.obs = stack_rows(obs, env.obs_dim());

@@ -16,6 +16,7 @@ struct RolloutResult {
   bool success = false;
   bool queried = false;       // the rule would have asked (K violations in a row) at some point
   int first_query_step = -1;  // env step of the first would-be query
+  std::string outcome;        // Env::outcome() at the end
   int steps = 0;
   int decisions = 0;
   double inference_s = 0;     // time spent deciding

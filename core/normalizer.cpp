@@ -9,7 +9,7 @@ constexpr float kRangeEps = 1e-4f;
 
 Normalizer::Normalizer(int dim) : scale_(Vec::Ones(dim)), offset_(Vec::Zero(dim)) {}
 
-Normalizer Normalizer::fit(const Mat& data) {
+Normalizer Normalizer::fit(const Mat& data, Constants constants) {
   if (data.rows() == 0) throw Error("normalizer: cannot fit on an empty data set");
   if (!data.allFinite()) throw Error("normalizer: data contains NaN or infinite values");
   const Vec lo = data.colwise().minCoeff().transpose();
@@ -17,7 +17,10 @@ Normalizer Normalizer::fit(const Mat& data) {
   Normalizer n(static_cast<int>(data.cols()));
   for (int i = 0; i < n.dim(); ++i) {
     const float range = hi[i] - lo[i];
-    if (range < kRangeEps) {
+    if (range < kRangeEps && constants == Constants::kPin) {
+      n.scale_[i] = 2.0f / kRangeEps;  // [-1, 1] unnormalises to within kRangeEps / 2 of the constant
+      n.offset_[i] = -n.scale_[i] * 0.5f * (lo[i] + hi[i]);
+    } else if (range < kRangeEps) {
       n.scale_[i] = 1.0f;
       n.offset_[i] = -lo[i];  // the constant value maps to 0
     } else {

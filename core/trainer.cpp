@@ -54,7 +54,8 @@ Trainer::Trainer(DiffusionPolicy& policy, const ChunkDataset& data, const TrainC
     throw Error("train: data set shapes (obs " + std::to_string(data.obs_dim()) + ", action " +
                 std::to_string(data.action_dim) + ", horizon " + std::to_string(data.horizon) +
                 ") do not match the policy config");
-  if (config.fit_normalizer) policy.set_normalizers(Normalizer::fit(data.obs), Normalizer::fit(data.action_rows()));
+  if (config.fit_normalizer)
+    policy.set_normalizers(Normalizer::fit(data.obs), Normalizer::fit(data.action_rows(), Normalizer::Constants::kPin));
   TrainConfig resolved = config;
   resolved.steps = config.steps_for(data.size());  // the learning-rate schedule spans the steps actually run
   resolved.epochs = 0;

@@ -65,6 +65,25 @@ TEST(Normalizer, MapsRangeToMinusOneOneAndBack) {
   EXPECT_TRUE(n.unnormalize(y).isApprox(x, 1e-6f));
 }
 
+TEST(Normalizer, PinnedConstantsUnnormaliseToTheConstantWhateverTheNetworkSays) {
+  Mat x(3, 2);
+  x << 0, 0.7f, 10, 0.7f, 5, 0.7f;  // dim 1 is constant (an action axis the expert never moves)
+  const Normalizer pin = Normalizer::fit(x, Normalizer::Constants::kPin);
+  EXPECT_NEAR(pin.normalize(x)(1, 1), 0.0f, 1e-2f);
+  Mat out(2, 2);
+  out << -1, -1, 1, 1;  // the network's extremes
+  const Mat raw = pin.unnormalize(out);
+  EXPECT_NEAR(raw(0, 1), 0.7f, 1e-4f);
+  EXPECT_NEAR(raw(1, 1), 0.7f, 1e-4f);
+  EXPECT_NEAR(raw(0, 0), 0.0f, 1e-5f);  // varying dimensions are unchanged
+  EXPECT_NEAR(raw(1, 0), 10.0f, 1e-5f);
+  // observations pass a constant through unamplified: a run-time change of 0.1 stays 0.1
+  const Normalizer pass = Normalizer::fit(x);
+  Mat moved = x;
+  moved(0, 1) += 0.1f;
+  EXPECT_NEAR(pass.normalize(moved)(0, 1), 0.1f, 1e-5f);
+}
+
 TEST(Normalizer, RejectsEmptyAndNonFinite) {
   EXPECT_THROW(Normalizer::fit(Mat(0, 2)), Error);
   Mat x = Mat::Zero(2, 2);

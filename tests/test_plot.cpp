@@ -48,4 +48,31 @@ TEST(Plot, FieldGreysOutBlockedCellsAndStacks) {
   EXPECT_GT(both.height, img.height);
 }
 
+TEST(Plot, LinesRiseWhereTheirValuesRise) {
+  LinePanel p;
+  p.title = "t";
+  p.x_label = "x";
+  p.y_label = "y";
+  p.y_min = 0;
+  p.y_max = 1;
+  p.series.push_back({"rising", {0, 1, 2}, {0.1, 0.5, 0.9}, {255, 0, 0}});
+  p.series.push_back({"flat", {0, 1, 2}, {0.2, 0.2, NAN}, {0, 0, 255}});  // a NaN point is skipped
+  const Image img = draw_lines(p);
+  EXPECT_EQ(img.width, p.width);
+  // the red series' last point (right edge of the plot) sits higher than its first (left edge)
+  auto red_row_near = [&](int x0) {
+    for (int y = 0; y < img.height; ++y)
+      for (int x = x0 - 3; x <= x0 + 3; ++x) {
+        const uint8_t* px = &img.rgba[(static_cast<size_t>(y) * img.width + x) * 4];
+        if (px[0] > 240 && px[1] < 20 && px[2] < 20) return y;
+      }
+    return -1;
+  };
+  const int first_row = red_row_near(80), last_row = red_row_near(p.width - 20);  // the plot area's x range
+  ASSERT_GE(first_row, 0);
+  ASSERT_GE(last_row, 0);
+  EXPECT_LT(last_row, first_row - 100);
+  EXPECT_GT(count_color(img, {0, 0, 255}), 20);
+}
+
 }  // namespace dd::ui

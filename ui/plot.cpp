@@ -124,6 +124,64 @@ Image draw_bars(const BarPanel& p) {
   return to_image(m);
 }
 
+Image draw_lines(const LinePanel& p) {
+  cv::Mat m(p.height, p.width, CV_8UC3, cv::Scalar(255, 255, 255));
+  const int left = 80, right = 20, top = 50, bottom = 60;
+  const cv::Rect area(left, top, p.width - left - right, p.height - top - bottom);
+  double x0 = INFINITY, x1 = -INFINITY, y0 = INFINITY, y1 = -INFINITY;
+  for (const auto& s : p.series)
+    for (size_t i = 0; i < s.x.size() && i < s.y.size(); ++i) {
+      if (!std::isfinite(s.x[i]) || !std::isfinite(s.y[i])) continue;
+      x0 = std::min(x0, s.x[i]), x1 = std::max(x1, s.x[i]);
+      y0 = std::min(y0, s.y[i]), y1 = std::max(y1, s.y[i]);
+    }
+  if (!std::isfinite(x0)) x0 = 0, x1 = 1, y0 = 0, y1 = 1;
+  if (std::isfinite(p.y_min)) y0 = p.y_min;
+  if (std::isfinite(p.y_max)) y1 = p.y_max;
+  if (!(x1 > x0)) x1 = x0 + 1;
+  if (!(y1 > y0)) y1 = y0 + 1;
+  const double xstep = nice_step(x1 - x0, 6), ystep = nice_step(y1 - y0, 5);
+  x0 = std::floor(x0 / xstep) * xstep, x1 = std::ceil(x1 / xstep) * xstep;
+  auto px = [&](double x, double y) {
+    return cv::Point(area.x + static_cast<int>(std::lround((x - x0) / (x1 - x0) * area.width)),
+                     area.y + area.height - static_cast<int>(std::lround((y - y0) / (y1 - y0) * area.height)));
+  };
+  for (double v = std::ceil(y0 / ystep) * ystep; v <= y1 + 1e-12; v += ystep) {
+    const int y = px(x0, v).y;
+    cv::line(m, {area.x, y}, {area.x + area.width, y}, kGrid, 1);
+    text(m, fmt_num(v), {area.x - 8 - 8 * static_cast<int>(fmt_num(v).size()), y + 4}, 0.42);
+  }
+  for (double v = x0; v <= x1 + 1e-12; v += xstep) {
+    const int x = px(v, y0).x;
+    cv::line(m, {x, area.y}, {x, area.y + area.height}, kGrid, 1);
+    char b[32];
+    std::snprintf(b, sizeof b, "%g", v);
+    text(m, b, {x, area.y + area.height + 18}, 0.42, kInk, 1, true);
+  }
+  for (const auto& s : p.series) {
+    std::vector<cv::Point> pts;
+    for (size_t i = 0; i < s.x.size() && i < s.y.size(); ++i)
+      if (std::isfinite(s.x[i]) && std::isfinite(s.y[i])) pts.push_back(px(s.x[i], s.y[i]));
+    if (pts.size() > 1) cv::polylines(m, pts, false, scalar(s.color), 2, cv::LINE_AA);
+    for (const auto& q : pts) cv::circle(m, q, 4, scalar(s.color), cv::FILLED, cv::LINE_AA);
+  }
+  // legend, top left inside the plot
+  int ly = area.y + 16;
+  for (const auto& s : p.series) {
+    if (s.name.empty()) continue;
+    cv::line(m, {area.x + 10, ly - 4}, {area.x + 30, ly - 4}, scalar(s.color), 2, cv::LINE_AA);
+    cv::circle(m, {area.x + 20, ly - 4}, 4, scalar(s.color), cv::FILLED, cv::LINE_AA);
+    text(m, s.name, {area.x + 36, ly}, 0.42);
+    ly += 18;
+  }
+  cv::line(m, {area.x, area.y}, {area.x, area.y + area.height}, kInk, 1);
+  cv::line(m, {area.x, area.y + area.height}, {area.x + area.width, area.y + area.height}, kInk, 1);
+  text(m, p.title, {p.width / 2, 30}, 0.62, kInk, 2, true);
+  text(m, p.x_label, {area.x + area.width / 2, p.height - 14}, 0.5, kInk, 1, true);
+  vertical_text(m, p.y_label, {16, area.y + area.height / 2});
+  return to_image(m);
+}
+
 Image draw_field(const FieldPanel& p) {
   const int map = p.size, bar_w = 18, pad_l = 20, pad_r = 110, top = 50, bottom = 30;
   cv::Mat m(top + map + bottom, pad_l + map + pad_r, CV_8UC3, cv::Scalar(255, 255, 255));

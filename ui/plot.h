@@ -3,6 +3,7 @@
 #pragma once
 
 #include <array>
+#include <cmath>
 #include <string>
 #include <vector>
 
@@ -23,6 +24,21 @@ struct BarPanel {
   int width = 520, height = 420;
 };
 Image draw_bars(const BarPanel& panel);
+
+/// A line chart: one polyline with markers per series, a legend, and an optional fixed y range.
+struct LineSeries {
+  std::string name;
+  std::vector<double> x, y;
+  Rgb color{60, 110, 210};
+};
+struct LinePanel {
+  std::string title;
+  std::string x_label, y_label;
+  std::vector<LineSeries> series;
+  double y_min = NAN, y_max = NAN;  // NaN: from the data
+  int width = 560, height = 420;
+};
+Image draw_lines(const LinePanel& panel);
 
 /// A polyline or a circle drawn over a field, in world coordinates.
 struct Overlay {

@@ -103,6 +103,15 @@ bool PlugEnv::inserted() const {
   return (c.head<2>() - s.head<2>()).norm() < 0.002 && c.z() < seated_height() + 0.003;
 }
 
+std::string PlugEnv::outcome() const {
+  if (success()) return "success";
+  const Eigen::Vector3d c = charger_pos();
+  if ((c.head<2>() - socket_pos().head<2>()).norm() < 0.01) return "over the socket";
+  if ((arm().tcp_pos(data()) - c).norm() < 0.04 && c.z() > seated_height() + 0.01) return "held";
+  if ((c.head<2>() - dock_pos().head<2>()).norm() < 0.01) return "in the dock";
+  return "dropped";
+}
+
 Vec PlugEnv::observation() const {
   Vec o(31);
   int k = 0;

@@ -36,6 +36,8 @@ class PlugEnv : public ArmEnv {
   /// The charger origin's height when fully inserted.
   double seated_height() const;
   bool inserted() const;
+  /// success; "over the socket" (within 1 cm, not seated); "held"; "in the dock"; "dropped".
+  std::string outcome() const override;
 
  protected:
   bool check_success() const override { return inserted(); }

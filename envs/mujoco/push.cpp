@@ -100,6 +100,16 @@ bool PushEnv::at_goal() const {
          std::abs(std::remainder(b.z() - config_.goal.z(), 2 * M_PI)) < config_.yaw_tolerance;
 }
 
+std::string PushEnv::outcome() const {
+  if (success()) return "success";
+  const Eigen::Vector3d b = block();
+  const double yaw = std::abs(std::remainder(b.z() - config_.goal.z(), 2 * M_PI));
+  if (yaw < config_.yaw_tolerance) return "turned, off in position";
+  if ((b.head<2>() - config_.goal.head<2>()).norm() < config_.pos_tolerance) return "placed, off in yaw";
+  if (yaw < M_PI / 2) return "half way";
+  return "far";
+}
+
 Vec7 PushEnv::joint_targets(const Eigen::Vector3d& p) const {
   Eigen::Matrix3d down;
   down << 1, 0, 0, 0, -1, 0, 0, 0, -1;

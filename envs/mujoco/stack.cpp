@@ -41,6 +41,7 @@ void StackEnv::reset(uint64_t seed) {
   mjData* d = mutable_data();
   auto yaw_quat = [](double yaw) { return Eigen::Quaterniond(Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ())); };
   set_free_pose(model(), d, red_, {r.x(), r.y(), config_.red_half}, yaw_quat(uyaw(rng)));
+  red_start_ = {r.x(), r.y(), config_.red_half};
   set_free_pose(model(), d, green_, {g.x(), g.y(), config_.green_half}, yaw_quat(uyaw(rng)));
   mj_forward(model(), d);
 }
@@ -75,6 +76,17 @@ bool StackEnv::red_on_green() const {
   const Eigen::Vector3d r = red_pos(), g = green_pos();
   const double rest = g.z() + config_.green_half + config_.red_half;
   return (r.head<2>() - g.head<2>()).norm() < 0.02 && std::abs(r.z() - rest) < 0.01;
+}
+
+std::string StackEnv::outcome() const {
+  if (success()) return "success";
+  if (red_on_green()) return "on green, not released";
+  const Eigen::Vector3d r = red_pos();
+  const bool between = (arm().tcp_pos(data()) - r).norm() < 0.03;
+  if (between && r.z() > config_.red_half + 0.01) return "held";
+  if ((r.head<2>() - green_pos().head<2>()).norm() < 0.06) return r.z() > config_.red_half + 0.01 ? "leaning on green" : "beside green";
+  if ((r - red_start_).norm() > 0.01) return "moved";
+  return "not grasped";
 }
 
 bool StackEnv::check_success() const {

@@ -34,6 +34,9 @@ class StackEnv : public ArmEnv {
   double green_yaw() const;
   /// True when the red cube rests on the green one (whatever the gripper does).
   bool red_on_green() const;
+  /// success; "on green, not released"; "held" (lifted in the gripper); "leaning on green" or
+  /// "beside green" (dropped within 6 cm); "moved" (elsewhere, off its start); "not grasped".
+  std::string outcome() const override;
 
  protected:
   bool check_success() const override;
@@ -41,6 +44,7 @@ class StackEnv : public ArmEnv {
  private:
   StackConfig config_;
   int red_ = -1, green_ = -1;
+  Eigen::Vector3d red_start_{0, 0, 0};
 };
 
 /// The scene's MJCF (for tools and tests).
