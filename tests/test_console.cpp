@@ -151,7 +151,9 @@ TEST(Console, OperatorDrivesTheArmAndTogglesTheGripper) {
       grip_min = std::min(grip_min, e.actions(r, 9));
       grip_max = std::max(grip_max, e.actions(r, 9));
     }
-    EXPECT_GT(moved, 0.05) << "the jogged TCP target should have moved ~12 cm";
+    // 12 jog frames of 1 cm; the target keeps within 8 cm of the TCP, so an arm that meets the cubes
+    // on the way lets it go less far
+    EXPECT_GT(moved, 0.03) << "the jogged TCP target should have moved several cm";
     EXPECT_GT(grip_max - grip_min, 0.5f) << "G should have toggled the gripper command";
     found = true;
   }
