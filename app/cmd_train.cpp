@@ -23,7 +23,7 @@ Command add_train(CLI::App& app) {
   cmd->add_option("--demos", o->train.demos, "the first N successful expert episodes (0: all)")->capture_default_str()->check(CLI::NonNegativeNumber);
   cmd->add_option("--expert", o->expert, "expert mode when collecting (default: the preset's)");
   cmd->add_option("--out", o->train.out, "output folder: policy.pt, curve.csv, losses.csv, summary.json, config.json")->required();
-  cmd->add_option("--steps", o->steps, "gradient steps (default: the preset's train.steps; 0 with --init: roll out only)")->check(CLI::NonNegativeNumber);
+  cmd->add_option("--steps", o->steps, "gradient steps (default: what BC gets in eval, the preset's per-update steps times its updates; 0 with --init: roll out only)")->check(CLI::NonNegativeNumber);
   cmd->add_option("--batch", o->batch, "batch size (default: the preset's)")->check(CLI::NonNegativeNumber);
   cmd->add_option("--eval", o->train.eval_episodes, "rollouts of the trained policy")->capture_default_str()->check(CLI::NonNegativeNumber);
   cmd->add_option("--eval-every", o->train.eval_every, "also roll out every this many steps (a curve over training)")->check(CLI::NonNegativeNumber);
@@ -33,7 +33,10 @@ Command add_train(CLI::App& app) {
   return [o] {
     ExperimentConfig c = o->config.empty() ? preset(o->task == "push" ? "push_2experts" : o->task) : resolve_config("", o->config);
     if (!o->expert.empty()) c.expert = o->expert;
-    if (o->steps >= 0) c.train.steps = o->steps;
+    // By default the budget BC gets in `eval`: the preset's per-update steps times the number of
+    // updates a DAgger run makes (or, with from-scratch updates, the epoch rule).
+    if (o->steps >= 0) c.train.steps = o->steps, c.train.epochs = 0;
+    else if (!c.train.from_scratch) c.train.steps *= bc_budget_factor(c.dagger);
     if (o->batch > 0) c.train.batch_size = o->batch;
     c.train.seed = o->seed;
     c.dagger.seed = o->seed;

@@ -4,6 +4,7 @@
 
 #include <filesystem>
 #include <fstream>
+#include <sstream>
 
 #include "app/experiments.h"
 #include "core/dataset.h"
@@ -80,7 +81,67 @@ TEST(DaggerNav2d, QuickEvaluationWritesEveryFile) {
   std::ifstream rq2(e.out + "/rq2.csv");
   std::getline(rq2, header);
   EXPECT_EQ(header.rfind("method,success_rate,n", 0), 0u) << header;
+  // counts beside the rates: TP + FP + TN + FN is the number of rollouts of each method
+  std::ifstream rq1b(e.out + "/rq1.csv");
+  std::getline(rq1b, header);
+  EXPECT_NE(header.find(",tp,fp,tn,fn,"), std::string::npos) << header;
+  const std::string report = [&] {
+    std::ifstream r(e.out + "/report.md");
+    std::stringstream ss;
+    ss << r.rdbuf();
+    return ss.str();
+  }();
+  EXPECT_NE(report.find("| TP | FP | TN | FN |"), std::string::npos);
+  EXPECT_NE(report.find("final iteration"), std::string::npos);
   fs::remove_all(e.out);
+}
+
+TEST(Train, BehaviourCloningWritesAPolicyACurveAndAnOutcomeBreakdown) {
+  ExperimentConfig c = preset("nav2d");
+  c.train.steps = 30;
+  c.train.batch_size = 32;
+  TrainOptions o;
+  o.demos = 3;
+  o.eval_episodes = 3;
+  o.eval_every = 15;
+  o.quiet = true;
+  const std::string root = temp_dir("train");
+  o.out = root + "/n3";
+  const TrainRunResult r = run_train(c, o);
+  EXPECT_EQ(r.demos, 3);
+  ASSERT_EQ(r.curve.size(), 2u);  // after 15 and after 30 steps
+  EXPECT_EQ(r.curve[0].first, 15);
+  EXPECT_EQ(r.curve[1].first, 30);
+  for (const char* f : {"policy.pt", "curve.csv", "losses.csv", "summary.json", "config.json"})
+    EXPECT_TRUE(fs::exists(o.out + "/" + f)) << f;
+  std::ifstream curve(o.out + "/curve.csv");
+  std::string header, line;
+  std::getline(curve, header);
+  EXPECT_EQ(header, "step,success_rate,episodes,demos,outcomes");
+  std::getline(curve, line);
+  EXPECT_NE(line.find("\""), std::string::npos) << line;  // the outcome breakdown, quoted
+
+  // the same policy, rolled out again from its checkpoint, succeeds as often
+  TrainOptions again = o;
+  again.init = o.out + "/policy.pt";
+  again.out = root + "/n3_again";
+  ExperimentConfig zero = c;
+  zero.train.steps = 0;
+  again.eval_every = 0;
+  EXPECT_DOUBLE_EQ(run_train(zero, again).success, r.success);
+
+  // a second demonstration count, then the learning curves over both
+  o.demos = 5;
+  o.out = root + "/n5";
+  run_train(c, o);
+  EXPECT_EQ(write_learning_curves(root), 3);
+  for (const char* f : {"curves.csv", "success_vs_demos.png", "success_vs_steps.png"}) EXPECT_TRUE(fs::exists(root + "/" + f)) << f;
+
+  // a data set with fewer successful episodes than asked for is an error naming the file
+  TrainOptions bad = o;
+  bad.data = root + "/missing.hdf5";
+  EXPECT_THROW(run_train(c, bad), Error);
+  fs::remove_all(root);
 }
 
 }  // namespace dd::app
