@@ -293,6 +293,35 @@ TEST(Mujoco, MixedPushExpertUsesBothSenses) {
   EXPECT_LT(cw, 30);
 }
 
+TEST(Mujoco, AlternatingPushExpertsTakeTurns) {
+  // push_2experts: consecutive episodes (consecutive seeds) alternate between the two senses
+  auto expert = make_expert("push", "alternate");
+  auto* push = dynamic_cast<PushExpert*>(expert.get());
+  ASSERT_NE(push, nullptr);
+  for (uint64_t s = 100; s < 110; ++s) {
+    push->reset(s);
+    EXPECT_EQ(push->episode_mode(), s % 2 == 0 ? PushExpert::Mode::kClockwise : PushExpert::Mode::kCounterClockwise) << s;
+  }
+  EXPECT_THROW(make_expert("push", "sideways"), Error);
+}
+
+TEST(Mujoco, OutcomesSayHowFarAnEpisodeGot) {
+  StackEnv stack;
+  stack.reset(3);
+  EXPECT_EQ(stack.outcome(), "not grasped");
+  StackExpert expert;
+  expert.reset(3);
+  while (!stack.step(expert.act(stack)).done) {
+  }
+  EXPECT_EQ(stack.outcome(), "success");
+  PushEnv push;
+  push.reset(3);
+  EXPECT_EQ(push.outcome(), "far");  // half a turn from home
+  PlugEnv plug;
+  plug.reset(3);
+  EXPECT_EQ(plug.outcome(), "in the dock");
+}
+
 TEST(Mujoco, PlannerGoesAroundAnObstacle) {
   const std::vector<Box3> wall = {{{0.45, -0.1, 0.0}, {0.5, 0.1, 0.4}}};
   const Eigen::Vector3d a(0.3, 0, 0.1), b(0.7, 0, 0.1);
