@@ -109,6 +109,12 @@ int bc_budget_factor(const DaggerConfig& d) {
   return 1 + (d.final_demos - d.initial_demos + d.demos_per_update - 1) / d.demos_per_update;
 }
 
+TrainConfig rq1_training(const ExperimentConfig& c) {
+  TrainConfig t = c.train;
+  if (!t.from_scratch) t.steps *= bc_budget_factor(c.dagger);
+  return t;
+}
+
 DaggerRunResult run_dagger(const ExperimentConfig& config, const DaggerRunOptions& o, std::unique_ptr<Method>* method_out) {
   config.validate();
   if (o.out.empty()) throw Error("dagger: an output folder is required (--out)");
@@ -399,7 +405,7 @@ void run_eval(const ExperimentConfig& config, const EvalOptions& o) {
         const auto demos = collect_demos(c.task, c.expert, c.rq1_demos, c.dagger.seed);
         {
           ProgressBar bar(fmt::format("[seed {}] RQ1 {:8} train", s, name), "loss");
-          m->update(demos, {}, c.train, bar.fn());
+          m->update(demos, {}, rq1_training(c), bar.fn());
         }
         double risk_data_s = 0;
         if (name == "thrifty") {
@@ -528,12 +534,14 @@ void run_eval(const ExperimentConfig& config, const EvalOptions& o) {
                                config.method.calibration_pairs > 0 ? fmt::format("at most {}", config.method.calibration_pairs) : "all",
                                config.method.score_raw_weights ? "raw training" : "EMA");
   md += fmt::format("## Table I: failure prediction (RQ1)\n\nPolicies trained on N_D = {} demonstrations, rolled out without intervention. "
+                    "They are trained like BC ({}). "
                     "Positive = the rule would have asked; actual positive = the episode failed. TP, FP, TN, FN are summed over seeds; "
                     "n/a: undefined (no failed rollout for TPR, no successful one for TNR). Ensemble-DAgger and Thrifty-DAgger act with "
                     "the member trained on all the demonstrations; the other members are bootstrapped.\n\n"
                     "| Task | N_D | Method | TPR | TNR | F1 | Acc | TP | FP | TN | FN | rollout success |\n"
                     "|---|---|---|---|---|---|---|---|---|---|---|---|\n",
-                    config.rq1_demos);
+                    config.rq1_demos,
+                    config.train.from_scratch ? "the epoch rule" : fmt::format("{} steps", rq1_training(config).steps));
   for (const std::string& name : o.methods) {
     const Row& r = rows[name];
     if (r.tpr.empty()) continue;

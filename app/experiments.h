@@ -32,6 +32,11 @@ struct DaggerRunResult {
 /// many training budgets; BC, trained once, gets the same number of gradient steps.
 int bc_budget_factor(const DaggerConfig& dagger);
 
+/// The training of an RQ1 policy: a whole training, like BC's (the per-update steps times the updates
+/// when updates fine-tune; the epoch rule when they train from scratch), so that N_D alone sets how
+/// good the policy is.
+TrainConfig rq1_training(const ExperimentConfig& config);
+
 /// Runs Algorithm 1 to N_f expert demonstrations; when `method_out` is given, the trained method is
 /// kept there for evaluation. Throws dd::Error on bad input.
 DaggerRunResult run_dagger(const ExperimentConfig& config, const DaggerRunOptions& options,
