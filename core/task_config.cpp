@@ -164,7 +164,7 @@ ExperimentConfig preset(const std::string& name) {
   } else if (name == "stack") {
     // MuJoCo tasks: Table III schedules. Observation sizes are those of the state observations
     // planned for them (joints, end-effector pose with 6-D rotation, gripper, object poses).
-    c = table3(name, "stack", 31, 10, 32, 8, 16, 20, 60, 4, 0.99, 2, 250);
+    c = table3(name, "stack", 37, 10, 32, 8, 16, 20, 60, 4, 0.99, 2, 250);
     c.expert = "planner";
     c.rq1_demos = 30;
   } else if (name == "push_1expert") {
@@ -177,7 +177,7 @@ ExperimentConfig preset(const std::string& name) {
     c.expert = "alternate";  // two experts: cw and ccw on alternate episodes
     c.rq1_demos = 50;
   } else if (name == "plug") {
-    c = table3(name, "plug", 31, 10, 64, 8, 64, 20, 100, 8, 0.99, 2, 500);
+    c = table3(name, "plug", 37, 10, 64, 8, 64, 20, 100, 8, 0.99, 2, 500);
     c.expert = "planner";
     c.rq1_demos = 100;
   } else {

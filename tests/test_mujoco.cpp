@@ -92,11 +92,11 @@ void expect_same_trajectory(uint64_t seed, int steps) {
 
 TEST(Mujoco, StackModelLoadsWithTheDeclaredSizes) {
   StackEnv env;
-  EXPECT_EQ(env.obs_dim(), 31);
+  EXPECT_EQ(env.obs_dim(), 37);
   EXPECT_EQ(env.action_dim(), 10);
   EXPECT_EQ(env.model()->nu, 9);  // 7 joint servos, 2 finger servos
   const Vec o = env.observation();
-  ASSERT_EQ(o.size(), 31);
+  ASSERT_EQ(o.size(), 37);
   EXPECT_TRUE(o.allFinite());
   // the TCP starts above the table, pointing down
   EXPECT_GT(env.arm().tcp_pos(env.data()).z(), 0.15);
@@ -193,10 +193,10 @@ TEST(Mujoco, ExplodingSimulationEndsTheEpisodeAsFailed) {
 
 TEST(Mujoco, PlugModelLoadsWithTheDeclaredSizes) {
   PlugEnv env;
-  EXPECT_EQ(env.obs_dim(), 31);
+  EXPECT_EQ(env.obs_dim(), 37);
   EXPECT_EQ(env.action_dim(), 10);
   const Vec o = env.observation();
-  ASSERT_EQ(o.size(), 31);
+  ASSERT_EQ(o.size(), 37);
   EXPECT_TRUE(o.allFinite());
   // 1 mm clearance a side between prong and socket, and the charger starts out of the socket
   EXPECT_NEAR(env.config().socket_half - env.config().prong_half, 0.001, 1e-9);

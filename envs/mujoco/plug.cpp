@@ -113,7 +113,7 @@ std::string PlugEnv::outcome() const {
 }
 
 Vec PlugEnv::observation() const {
-  Vec o(31);
+  Vec o(37);
   int k = 0;
   arm_observation(o, k);
   const Eigen::Vector3d p = charger_pos();
@@ -127,6 +127,9 @@ Vec PlugEnv::observation() const {
   for (int i = 0; i < 3; ++i) o[k++] = static_cast<float>(s[i]);
   const double* mq = data()->mocap_quat + 4 * receptacle_;
   for (int i = 0; i < 4; ++i) o[k++] = static_cast<float>(mq[i]);
+  const Eigen::Vector3d tcp = arm().tcp_pos(data());
+  for (int i = 0; i < 3; ++i) o[k++] = static_cast<float>(p[i] - tcp[i]);  // charger minus TCP
+  for (int i = 0; i < 3; ++i) o[k++] = static_cast<float>(s[i] - p[i]);    // socket minus charger
   return o;
 }
 

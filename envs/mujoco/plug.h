@@ -1,8 +1,9 @@
 // Plugging: a charger stands in a loose dock; the arm picks it up, turns it to the receptacle's yaw
 // and inserts its square prong (18 mm) into the receptacle's square socket (20 mm: 1 mm clearance a
 // side). T_L = 500 steps at 20 Hz.
-//   observation (31): joints (7), TCP position (3), TCP 6-D rotation (6), gripper opening (1),
-//                     charger position (3) and quaternion (4), receptacle position (3) and quaternion (4)
+//   observation (37): joints (7), TCP position (3), TCP 6-D rotation (6), gripper opening (1),
+//                     charger position (3) and quaternion (4), receptacle position (3) and quaternion (4),
+//                     charger minus TCP (3), socket minus charger (3)
 //   action      (10): TCP position (3), TCP 6-D rotation (6), gripper (0 open .. 1 closed)
 //   success: fully inserted: the charger's handle rests on the receptacle (within 3 mm of the seated
 //            height) with the prong centred in the socket (within 2 mm)
@@ -23,7 +24,7 @@ struct PlugConfig {
 class PlugEnv : public ArmEnv {
  public:
   explicit PlugEnv(PlugConfig config = {});
-  int obs_dim() const override { return 31; }
+  int obs_dim() const override { return 37; }
   void reset(uint64_t seed) override;
   Vec observation() const override;
 

@@ -47,9 +47,10 @@ void StackEnv::reset(uint64_t seed) {
 }
 
 Vec StackEnv::observation() const {
-  Vec o(31);
+  Vec o(37);
   int k = 0;
   arm_observation(o, k);
+  const Eigen::Vector3d tcp = arm().tcp_pos(data()), red = red_pos(), green = green_pos();
   for (int b : {red_, green_}) {
     const Eigen::Vector3d p = free_pos(model(), data(), b);
     const Eigen::Quaterniond q = free_quat(model(), data(), b);
@@ -59,6 +60,8 @@ Vec StackEnv::observation() const {
     o[k++] = static_cast<float>(q.y());
     o[k++] = static_cast<float>(q.z());
   }
+  for (int i = 0; i < 3; ++i) o[k++] = static_cast<float>(red[i] - tcp[i]);
+  for (int i = 0; i < 3; ++i) o[k++] = static_cast<float>(green[i] - red[i]);
   return o;
 }
 

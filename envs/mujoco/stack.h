@@ -1,7 +1,10 @@
 // Stacking: a red cube and a green cube lie at random places on the table; the arm must put the red
 // cube on the green one and let go. T_L = 250 steps at 20 Hz.
-//   observation (31): joints (7), TCP position (3), TCP 6-D rotation (6), gripper opening (1),
-//                     red cube position (3) and quaternion (4), green cube position (3) and quaternion (4)
+//   observation (37): joints (7), TCP position (3), TCP 6-D rotation (6), gripper opening (1),
+//                     red cube position (3) and quaternion (4), green cube position (3) and quaternion (4),
+//                     red minus TCP (3) and green minus red (3): the grasp and placement errors
+//                     directly, as robomimic's gripper-to-object features, rather than as small
+//                     differences of large normalised positions
 //   action      (10): TCP position (3), TCP 6-D rotation (6), gripper (0 open .. 1 closed)
 //   success: the red cube rests on the green one (centres within 2 cm horizontally, its bottom on the
 //            green top within 1 cm) and the gripper is open (>= 6 cm) above it
@@ -23,7 +26,7 @@ struct StackConfig {
 class StackEnv : public ArmEnv {
  public:
   explicit StackEnv(StackConfig config = {});
-  int obs_dim() const override { return 31; }
+  int obs_dim() const override { return 37; }
   void reset(uint64_t seed) override;
   Vec observation() const override;
 
