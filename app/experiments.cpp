@@ -256,7 +256,7 @@ TrainRunResult run_train(const ExperimentConfig& config, const TrainOptions& o) 
   write_text(o.out + "/losses.csv", loss_csv);
   if (o.eval_episodes > 0) evaluate(steps);
   const nlohmann::json summary{{"task", config.task}, {"preset", config.preset}, {"expert", config.expert}, {"demos", result.demos},
-                               {"pairs", result.pairs}, {"steps", steps}, {"batch_size", config.train.batch_size},
+                               {"pairs", result.pairs}, {"steps", steps}, {"obs_dim", config.policy.obs_dim}, {"batch_size", config.train.batch_size},
                                {"train_s", result.train_s}, {"eval_s", result.eval_s}, {"final_loss", result.final_loss},
                                {"episodes", o.eval_episodes}, {"success_rate", o.eval_episodes > 0 ? result.success : -1.0},
                                {"eval_seed", o.eval_seed}};
@@ -267,7 +267,7 @@ TrainRunResult run_train(const ExperimentConfig& config, const TrainOptions& o) 
 int write_learning_curves(const std::string& dir) {
   struct Run {
     std::string cell, task, expert;
-    int demos = 0, steps = 0, episodes = 0;
+    int demos = 0, steps = 0, episodes = 0, obs_dim = 0;
     double success = NAN;
     std::vector<std::pair<double, double>> curve;
   };
@@ -287,6 +287,7 @@ int write_learning_curves(const std::string& dir) {
       r.steps = j.at("steps").get<int>();
       r.episodes = j.at("episodes").get<int>();
       r.success = j.at("success_rate").get<double>();
+      r.obs_dim = j.value("obs_dim", 0);
     } catch (const std::exception& e) {
       throw Error(summary + ": not a train summary (" + e.what() + ")");
     }
@@ -315,7 +316,7 @@ int write_learning_curves(const std::string& dir) {
   by_demos.y_min = 0, by_demos.y_max = 1;
   std::map<std::string, size_t> line_of;  // task/expert/steps -> series
   for (const Run& r : runs) {
-    const std::string key = fmt::format("{} ({}), {} steps", r.task, r.expert, r.steps);
+    const std::string key = fmt::format("{} ({}), {} steps, obs {}", r.task, r.expert, r.steps, r.obs_dim);
     if (!line_of.count(key)) {
       line_of[key] = by_demos.series.size();
       by_demos.series.push_back({key, {}, {}, palette[by_demos.series.size() % 6]});
@@ -331,7 +332,7 @@ int write_learning_curves(const std::string& dir) {
   by_steps.y_min = 0, by_steps.y_max = 1;
   for (const Run& r : runs) {
     if (r.curve.size() < 2) continue;
-    ui::LineSeries s{fmt::format("{} ({}), {} demos", r.task, r.expert, r.demos), {}, {}, palette[by_steps.series.size() % 6]};
+    ui::LineSeries s{fmt::format("{}: {} ({}), {} demos", r.cell, r.task, r.expert, r.demos), {}, {}, palette[by_steps.series.size() % 6]};
     for (const auto& [step, success] : r.curve) s.x.push_back(step), s.y.push_back(success);
     by_steps.series.push_back(std::move(s));
   }

@@ -166,6 +166,10 @@ ExperimentConfig preset(const std::string& name) {
     // planned for them (joints, end-effector pose with 6-D rotation, gripper, object poses).
     c = table3(name, "stack", 37, 10, 32, 8, 16, 20, 60, 4, 0.99, 2, 250);
     c.expert = "planner";
+    // CPU budget: 730 steps at batch 128 per update, so BC on N_f = 60 (11 updates' worth, 8030
+    // steps) reaches 0.90 over 100 rollouts (results/bc_curves/stack)
+    c.train.steps = 730;
+    c.train.batch_size = 128;
     c.rq1_demos = 30;
   } else if (name == "push_1expert") {
     // T_L: the paper's 250 steps for an expert of ~66 steps, scaled to ours of ~170 (envs/mujoco/push.h)
