@@ -27,6 +27,7 @@ Command add_train(CLI::App& app) {
   cmd->add_option("--batch", o->batch, "batch size (default: the preset's)")->check(CLI::NonNegativeNumber);
   cmd->add_option("--eval", o->train.eval_episodes, "rollouts of the trained policy")->capture_default_str()->check(CLI::NonNegativeNumber);
   cmd->add_option("--eval-every", o->train.eval_every, "also roll out every this many steps (a curve over training)")->check(CLI::NonNegativeNumber);
+  cmd->add_option("--curve-eval", o->train.curve_episodes, "rollouts at the --eval-every points (default: --eval's)")->check(CLI::NonNegativeNumber);
   cmd->add_option("--init", o->train.init, "checkpoint to start from (with --steps 0: only roll it out)");
   cmd->add_option("--eval-seed", o->train.eval_seed, "seed of the first rollout")->capture_default_str();
   cmd->add_option("--seed", o->seed, "seed of the network, the minibatches and the collected demonstrations")->capture_default_str();

@@ -10,6 +10,7 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <numeric>
 #include <map>
 #include <nlohmann/json.hpp>
 
@@ -216,20 +217,19 @@ TrainRunResult run_train(const ExperimentConfig& config, const TrainOptions& o) 
   const DaggerConfig& d = config.dagger;
   std::ofstream curve_csv(o.out + "/curve.csv");
   curve_csv << "step,success_rate,episodes,demos,outcomes\n";
-  auto evaluate = [&](int step) {
+  auto evaluate = [&](int step, int episodes) {
     const auto t = std::chrono::steady_clock::now();
     std::vector<RolloutResult> results;
     {
       ProgressBar bar(fmt::format("rollouts after {} steps", step), "success");
-      results = evaluate_rollouts(*env, *actor, o.eval_episodes, RolloutSpec::of(d), o.eval_seed, o.quiet ? ProgressFn{} : bar.fn());
+      results = evaluate_rollouts(*env, *actor, episodes, RolloutSpec::of(d), o.eval_seed, o.quiet ? ProgressFn{} : bar.fn());
     }
     result.eval_s += std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count();
     result.curve.emplace_back(step, success_rate(results));
     result.success = success_rate(results);
     const std::string outcomes = outcome_counts(results);
-    curve_csv << fmt::format("{},{:.4f},{},{},\"{}\"\n", step, result.success, o.eval_episodes, result.demos, outcomes) << std::flush;
-    if (!o.quiet)
-      fmt::print(stderr, "after {} steps: success {:.2f} over {} rollouts ({})\n", step, result.success, o.eval_episodes, outcomes);
+    curve_csv << fmt::format("{},{:.4f},{},{},\"{}\"\n", step, result.success, episodes, result.demos, outcomes) << std::flush;
+    if (!o.quiet) fmt::print(stderr, "after {} steps: success {:.2f} over {} rollouts ({})\n", step, result.success, episodes, outcomes);
   };
 
   std::vector<float> losses;
@@ -242,19 +242,18 @@ TrainRunResult run_train(const ExperimentConfig& config, const TrainOptions& o) 
       losses.push_back(trainer.step());
       if (!o.quiet) bar.update(i, steps, losses.back());
       if (o.eval_episodes > 0 && o.eval_every > 0 && i % o.eval_every == 0 && i < steps) {
-        evaluate(i);
+        evaluate(i, o.curve_episodes > 0 ? o.curve_episodes : o.eval_episodes);
       }
     }
     result.train_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count() - result.eval_s;
   }
-  TrainStats stats;
-  stats.losses = losses;
-  result.final_loss = losses.empty() ? NAN : stats.last_mean(100);
+  const size_t tail = std::min<size_t>(losses.size(), 100);
+  result.final_loss = tail == 0 ? NAN : std::accumulate(losses.end() - tail, losses.end(), 0.0) / tail;
   policy.save(o.out + "/policy.pt");
   std::string loss_csv = "step,loss\n";
   for (size_t i = 0; i < losses.size(); ++i) loss_csv += fmt::format("{},{:.6g}\n", i + 1, losses[i]);
   write_text(o.out + "/losses.csv", loss_csv);
-  if (o.eval_episodes > 0) evaluate(steps);
+  if (o.eval_episodes > 0) evaluate(steps, o.eval_episodes);
   const nlohmann::json summary{{"task", config.task}, {"preset", config.preset}, {"expert", config.expert}, {"demos", result.demos},
                                {"pairs", result.pairs}, {"steps", steps}, {"obs_dim", config.policy.obs_dim}, {"batch_size", config.train.batch_size},
                                {"train_s", result.train_s}, {"eval_s", result.eval_s}, {"final_loss", result.final_loss},

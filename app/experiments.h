@@ -49,6 +49,7 @@ struct TrainOptions {
   std::string out;          // folder: policy.pt, curve.csv, losses.csv, summary.json
   int eval_episodes = 0;    // rollouts of the trained policy (0: none)
   int eval_every = 0;       // also roll out every this many steps, for a curve over training (0: at the end only)
+  int curve_episodes = 0;   // rollouts at those intermediate points (0: eval_episodes)
   std::string init;         // a checkpoint to start from (with 0 steps: only roll it out)
   uint64_t eval_seed = kTrainEvalSeed;
   bool quiet = false;

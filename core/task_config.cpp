@@ -173,11 +173,11 @@ ExperimentConfig preset(const std::string& name) {
     c.rq1_demos = 30;
   } else if (name == "push_1expert") {
     // T_L: the paper's 250 steps for an expert of ~66 steps, scaled to ours of ~170 (envs/mujoco/push.h)
-    c = table3(name, "push", 20, 7, 32, 2, 16, 20, 100, 4, 0.99, 1, 650);
+    c = table3(name, "push", 24, 7, 32, 2, 16, 20, 100, 4, 0.99, 1, 650);
     c.expert = "cw";  // one expert: one sense of rotation
     c.rq1_demos = 40;
   } else if (name == "push_2experts") {
-    c = table3(name, "push", 20, 7, 32, 2, 16, 20, 100, 4, 0.9, 2, 650);
+    c = table3(name, "push", 24, 7, 32, 2, 16, 20, 100, 4, 0.9, 2, 650);
     c.expert = "alternate";  // two experts: cw and ccw on alternate episodes
     c.rq1_demos = 50;
   } else if (name == "plug") {

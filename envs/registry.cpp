@@ -59,7 +59,7 @@ std::string env_args(const std::string& task) {
   if (task == "stack")
     return R"({"env_name": "stack", "type": "diffdagger", "env_kwargs": {"hz": 20, "time_limit": 250, "obs": ["q7", "tcp_pos3", "tcp_rot6d", "opening", "red_pos3", "red_quat4", "green_pos3", "green_quat4", "red_minus_tcp3", "green_minus_red3"], "action": ["tcp_pos3", "tcp_rot6d", "grip"]}})";
   if (task == "push")
-    return R"({"env_name": "push", "type": "diffdagger", "env_kwargs": {"hz": 20, "time_limit": 650, "goal": [0.52, 0.0, 0.0], "obs": ["q7", "tip_pos3", "tip_rot6d", "block_x", "block_y", "block_cos", "block_sin"], "action": ["dq7"]}})";
+    return R"({"env_name": "push", "type": "diffdagger", "env_kwargs": {"hz": 20, "time_limit": 650, "goal": [0.52, 0.0, 0.0], "obs": ["q7", "tip_pos3", "tip_rot6d", "block_x", "block_y", "block_cos", "block_sin", "tip_in_block2", "goal_in_block2"], "action": ["dq7"]}})";
   if (task == "plug")
     return R"({"env_name": "plug", "type": "diffdagger", "env_kwargs": {"hz": 20, "time_limit": 500, "clearance_mm": 1, "obs": ["q7", "tcp_pos3", "tcp_rot6d", "opening", "charger_pos3", "charger_quat4", "socket_pos3", "socket_quat4", "charger_minus_tcp3", "socket_minus_charger3"], "action": ["tcp_pos3", "tcp_rot6d", "grip"]}})";
   throw Error("unknown task '" + task + "'");

@@ -227,12 +227,19 @@ TEST(Mujoco, PlugIsDeterministic) { expect_same_trajectory<PlugEnv, PlugExpert>(
 
 TEST(Mujoco, PushModelLoadsWithTheDeclaredSizes) {
   PushEnv env;
-  EXPECT_EQ(env.obs_dim(), 20);
+  EXPECT_EQ(env.obs_dim(), 24);
   EXPECT_EQ(env.action_dim(), 7);
   const Vec o = env.observation();
-  ASSERT_EQ(o.size(), 20);
+  ASSERT_EQ(o.size(), 24);
   EXPECT_TRUE(o.allFinite());
   EXPECT_FALSE(env.at_goal());  // it starts about half a turn away
+  // the block-frame features turned back by the block's yaw are the world differences
+  const Eigen::Vector3d b = env.block();
+  const Eigen::Rotation2Dd R(b.z());
+  const Eigen::Vector2d tip = b.head<2>() + R * Eigen::Vector2d(o[20], o[21]);
+  const Eigen::Vector2d goal = b.head<2>() + R * Eigen::Vector2d(o[22], o[23]);
+  EXPECT_LT((tip - env.arm().tcp_pos(env.data()).head<2>()).norm(), 1e-5);
+  EXPECT_LT((goal - env.config().goal.head<2>()).norm(), 1e-5);
   // joint deltas are clipped: a huge action moves each joint by at most max_joint_step
   const Vec7 q0 = env.arm().q(env.data());
   env.step(Vec::Constant(7, 10.f));

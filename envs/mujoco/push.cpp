@@ -117,7 +117,7 @@ Vec7 PushEnv::joint_targets(const Eigen::Vector3d& p) const {
 }
 
 Vec PushEnv::observation() const {
-  Vec o(20);
+  Vec o(24);
   int k = 0;
   arm_observation(o, k);
   const Eigen::Vector3d b = block();
@@ -125,6 +125,16 @@ Vec PushEnv::observation() const {
   o[k++] = static_cast<float>(b.y());
   o[k++] = static_cast<float>(std::cos(b.z()));
   o[k++] = static_cast<float>(std::sin(b.z()));
+  // Where the tip is on the T, and where the goal is seen from the T, both in the T's own frame: the
+  // expert chooses contact points on the outline in that frame, and a network would otherwise have
+  // to rotate world differences by the block's yaw itself (a product of inputs).
+  const Eigen::Matrix2d Rt = Eigen::Rotation2Dd(b.z()).toRotationMatrix().transpose();
+  const Eigen::Vector2d tip = Rt * (arm().tcp_pos(data()).head<2>() - b.head<2>());
+  const Eigen::Vector2d goal = Rt * (config_.goal.head<2>() - b.head<2>());
+  o[k++] = static_cast<float>(tip.x());
+  o[k++] = static_cast<float>(tip.y());
+  o[k++] = static_cast<float>(goal.x());
+  o[k++] = static_cast<float>(goal.y());
   return o;
 }
 

@@ -4,7 +4,8 @@
 // (about 66 steps) a limit of 250, 3.8 times their duration; ours take about 170 steps (they turn the
 // block half a turn in strokes), so the same ratio gives 650. A robot as slow as 1.5x the expert
 // then still has time, and a time-out means it is stuck rather than slow.
-//   observation (20): joints (7), stick-tip position (3), 6-D rotation (6), block x, y, cos yaw, sin yaw (4)
+//   observation (24): joints (7), stick-tip position (3), 6-D rotation (6), block x, y, cos yaw, sin yaw (4),
+//   the tip and the goal position in the block's frame (2 + 2)
 //   action       (7): joint position changes [rad per step], clipped to +-0.08
 //   success: the block's centre within 2 cm of the goal and its yaw within 10 degrees
 #pragma once
@@ -36,7 +37,7 @@ double t_distance(const Eigen::Vector2d& p);
 class PushEnv : public ArmEnv {
  public:
   explicit PushEnv(PushConfig config = {});
-  int obs_dim() const override { return 20; }
+  int obs_dim() const override { return 24; }
   void reset(uint64_t seed) override;
   Vec observation() const override;
 
