@@ -172,11 +172,26 @@ class ThriftyMethod : public EnsembleMethod {
   float gamma_ = 0;
 };
 
-class BcMethod : public Method {
+// Acts with one policy and never asks: behaviour cloning, and rollouts of a trained policy.
+class UngatedMethod : public Method {
+ public:
+  bool gated() const override { return false; }
+  MethodDecision decide(const Vec& obs, uint64_t seed) override {
+    MethodDecision m;
+    m.chunk = acting().sample(obs, seed);
+    return m;
+  }
+  float threshold() const override { return INFINITY; }
+  void save(const std::string& dir) const override { acting().save(dir + "/policy.pt"); }
+
+ protected:
+  virtual const DiffusionPolicy& acting() const = 0;
+};
+
+class BcMethod : public UngatedMethod {
  public:
   BcMethod(const PolicyConfig& pc, uint64_t seed) : policy_(pc, seed), seed_(seed) {}
   std::string name() const override { return "bc"; }
-  bool gated() const override { return false; }
 
   UpdateReport update(const std::vector<Episode>& expert, const std::vector<RecordedEpisode>&, const TrainConfig& train_config,
                       const ProgressFn& progress) override {
@@ -190,39 +205,26 @@ class BcMethod : public Method {
     r.train_s = since(t);
     return r;
   }
-  MethodDecision decide(const Vec& obs, uint64_t seed) override {
-    MethodDecision m;
-    m.chunk = policy_.sample(obs, seed);
-    return m;
-  }
-  float threshold() const override { return INFINITY; }
-  void save(const std::string& dir) const override { policy_.save(dir + "/policy.pt"); }
 
  private:
+  const DiffusionPolicy& acting() const override { return policy_; }
   DiffusionPolicy policy_;
   uint64_t seed_;
   bool trained_ = false;
 };
 
-// Acts with a borrowed policy and never asks.
-class PolicyActor : public Method {
+// A borrowed policy: trained by its owner, only rolled out here.
+class PolicyActor : public UngatedMethod {
  public:
   explicit PolicyActor(const DiffusionPolicy& p) : policy_(p) {}
   std::string name() const override { return "policy"; }
-  bool gated() const override { return false; }
   UpdateReport update(const std::vector<Episode>&, const std::vector<RecordedEpisode>&, const TrainConfig&,
                       const ProgressFn&) override {
     throw Error("a borrowed policy is trained by its owner, not through Method::update");
   }
-  MethodDecision decide(const Vec& obs, uint64_t seed) override {
-    MethodDecision m;
-    m.chunk = policy_.sample(obs, seed);
-    return m;
-  }
-  float threshold() const override { return INFINITY; }
-  void save(const std::string& dir) const override { policy_.save(dir + "/policy.pt"); }
 
  private:
+  const DiffusionPolicy& acting() const override { return policy_; }
   const DiffusionPolicy& policy_;
 };
 

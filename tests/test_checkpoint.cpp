@@ -9,20 +9,12 @@
 #include "core/policy.h"
 #include "core/synthetic.h"
 #include "core/trainer.h"
+#include "tests/fakes.h"
 
 namespace dd {
 namespace {
 
 namespace fs = std::filesystem;
-
-PolicyConfig tiny_config() {
-  PolicyConfig c;
-  c.obs_dim = 3;
-  c.action_dim = 2;
-  c.horizon = 8;
-  c.unet = unet_preset("tiny");
-  return c;
-}
 
 class Checkpoint : public testing::Test {
  protected:
@@ -35,7 +27,7 @@ class Checkpoint : public testing::Test {
 
   // A policy whose live and EMA weights differ and whose normalisers are fitted.
   static std::unique_ptr<DiffusionPolicy> trained() {
-    auto p = std::make_unique<DiffusionPolicy>(tiny_config(), 1);
+    auto p = std::make_unique<DiffusionPolicy>(fakes::tiny_policy(3, 2), 1);
     TrainConfig t;
     t.steps = 20;
     t.batch_size = 32;
@@ -68,14 +60,14 @@ TEST_F(Checkpoint, RoundTripGivesIdenticalSamples) {
             loaded->expected_loss(obs, original->sample(obs, 1), 3));
   EXPECT_EQ(original->action_normalizer().scale(), loaded->action_normalizer().scale());
 
-  DiffusionPolicy into(tiny_config(), 99);  // different initial weights
+  DiffusionPolicy into(fakes::tiny_policy(3, 2), 99);  // different initial weights
   into.load(path_);
   EXPECT_EQ(original->sample(obs, 7), into.sample(obs, 7));
 }
 
 TEST_F(Checkpoint, MismatchedConfigNamesFileAndFields) {
   trained()->save(path_);
-  PolicyConfig other = tiny_config();
+  PolicyConfig other = fakes::tiny_policy(3, 2);
   other.unet.down_dims = {16, 32};
   other.obs_dim = 5;
   DiffusionPolicy wrong(other, 0);

@@ -13,19 +13,10 @@
 #include "core/policy.h"
 #include "core/synthetic.h"
 #include "core/trainer.h"
+#include "tests/fakes.h"
 
 namespace dd {
 namespace {
-
-PolicyConfig tiny_config() {
-  PolicyConfig c;
-  c.obs_dim = 2;
-  c.action_dim = 2;
-  c.horizon = 8;
-  c.action_steps = 4;
-  c.unet = unet_preset("tiny");
-  return c;
-}
 
 TrainConfig short_training(int steps = 40) {
   TrainConfig t;
@@ -64,7 +55,7 @@ std::vector<RecordedEpisode> failing_robot_data(const std::vector<Episode>& like
 
 TEST(Methods, ThriftysRiskRefitLeavesItsPoliciesAlone) {
   const auto episodes = bimodal_episodes(12, 10, 2, 2, /*seed=*/5);
-  auto m = make_method("thrifty", tiny_config(), small_method(), 1);
+  auto m = make_method("thrifty", fakes::tiny_policy(), small_method(), 1);
   m->update(episodes, {}, short_training());
   const Vec obs = Vec::Constant(2, 0.2f);
   const MethodDecision before = m->decide(obs, 77);
@@ -76,7 +67,7 @@ TEST(Methods, ThriftysRiskRefitLeavesItsPoliciesAlone) {
   EXPECT_FLOAT_EQ(before.score, after.score);
   EXPECT_NE(before.risk_q, after.risk_q);
   // the other methods have no risk to refit
-  auto diff = make_method("diff", tiny_config(), small_method(), 1);
+  auto diff = make_method("diff", fakes::tiny_policy(), small_method(), 1);
   EXPECT_EQ(diff->refit_risk(episodes, {}), 0.0);
 }
 
@@ -84,7 +75,7 @@ TEST(Methods, TheEnsemblesActingMemberIsTrainedOnAllTheData) {
   // Three episodes with disjoint observation ranges: a bootstrap resample usually misses one.
   auto episodes = bimodal_episodes(3, 10, 2, 2, /*seed=*/9);
   for (size_t i = 0; i < episodes.size(); ++i) episodes[i].obs.array() += 3.0f * static_cast<float>(i);
-  PolicyEnsemble ensemble(tiny_config(), 8, /*seed=*/2);
+  PolicyEnsemble ensemble(fakes::tiny_policy(), 8, /*seed=*/2);
   ensemble.train(episodes, short_training(2));
   std::vector<Episode> all = episodes;
   const Normalizer full = Normalizer::fit(ChunkDataset::from_episodes(all, 8).obs);
@@ -100,7 +91,7 @@ TEST(Methods, TheEnsemblesActingMemberIsTrainedOnAllTheData) {
 TEST(Methods, TheLossIsScoredWithTheChosenWeights) {
   const auto episodes = bimodal_episodes(12, 10, 2, 2, /*seed=*/5);
   const ChunkDataset data = ChunkDataset::from_episodes(episodes, 8);
-  DiffusionPolicy p(tiny_config(), 4, false);
+  DiffusionPolicy p(fakes::tiny_policy(), 4, false);
   TrainConfig t = short_training(60);
   t.ema_max_decay = 0.9;  // an EMA that lags visibly behind the raw weights
   train(p, data, t);
@@ -120,7 +111,7 @@ TEST(Methods, TheLossIsScoredWithTheChosenWeights) {
 
 TEST(Methods, ReinitialisingKeepsTheNormalisersAndDrawsNewWeights) {
   const auto episodes = bimodal_episodes(12, 10, 2, 2, /*seed=*/5);
-  DiffusionPolicy p(tiny_config(), 4, false);
+  DiffusionPolicy p(fakes::tiny_policy(), 4, false);
   train(p, ChunkDataset::from_episodes(episodes, 8), short_training(30));
   const Vec obs = Vec::Constant(2, 0.1f);
   const Mat trained = p.sample(obs, 3);
@@ -157,35 +148,6 @@ TEST(FailurePrediction, EmptyClassesAreUndefinedNotZero) {
 
 namespace {
 
-// A point that moves +1 per step and succeeds at x >= 12; counts decisions.
-class CountingEnv : public Env {
- public:
-  std::string name() const override { return "counting"; }
-  int obs_dim() const override { return 1; }
-  int action_dim() const override { return 1; }
-  int time_limit() const override { return limit_; }
-  void set_time_limit(int s) override { limit_ = s; }
-  double control_hz() const override { return 10; }
-  void reset(uint64_t) override { x_ = 0, steps_ = 0; }
-  Vec observation() const override { return Vec::Constant(1, x_); }
-  StepResult step(const Vec& a) override {
-    x_ += a[0];
-    ++steps_;
-    StepResult r;
-    r.success = success();
-    r.done = r.success || steps_ >= limit_;
-    return r;
-  }
-  bool success() const override { return x_ >= 12; }
-  int steps() const override { return steps_; }
-  std::vector<double> save_state() const override { return {}; }
-  void restore_state(const std::vector<double>&) override {}
-
- private:
-  float x_ = 0;
-  int steps_ = 0, limit_ = 100;
-};
-
 class AlwaysViolates : public Method {
  public:
   explicit AlwaysViolates(bool gated) : gated_(gated) {}
@@ -210,7 +172,7 @@ class AlwaysViolates : public Method {
 }  // namespace
 
 TEST(Rollouts, TheGateScoresPerChunkOrPerStep) {
-  CountingEnv env;
+  fakes::LineEnv env(/*goal=*/12, /*limit=*/100);
   RolloutSpec spec{100, 3, 4, GateCadence::kChunk};
   AlwaysViolates gated(true), bc(false);
   auto r = evaluate_rollouts(env, gated, 1, spec, 0).front();

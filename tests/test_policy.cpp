@@ -14,25 +14,16 @@
 #include "core/policy.h"
 #include "core/synthetic.h"
 #include "core/trainer.h"
+#include "tests/fakes.h"
 
 namespace dd {
 namespace {
-
-PolicyConfig small_config() {
-  PolicyConfig c;
-  c.obs_dim = 2;
-  c.action_dim = 2;
-  c.horizon = 8;
-  c.action_steps = 4;
-  c.unet = unet_preset("tiny");
-  return c;
-}
 
 class BimodalPolicy : public testing::Test {
  protected:
   static void SetUpTestSuite() {
     data_ = new ChunkDataset(ChunkDataset::from_episodes(bimodal_episodes(80, 12, 2, 2, /*seed=*/7), 8));
-    policy_ = new DiffusionPolicy(small_config(), /*seed=*/3);
+    policy_ = new DiffusionPolicy(fakes::tiny_policy(), /*seed=*/3);
     TrainConfig t;
     t.steps = 500;
     t.batch_size = 128;

@@ -10,45 +10,12 @@
 #include "core/config.h"
 #include "core/dataset.h"
 #include "core/session.h"
+#include "tests/fakes.h"
 
 namespace dd {
 namespace {
 
-// A point on a line: the action is a velocity in [-1, 1]; success at x >= 10.
-class LineEnv : public Env {
- public:
-  std::string name() const override { return "line"; }
-  int obs_dim() const override { return 1; }
-  int action_dim() const override { return 1; }
-  int time_limit() const override { return limit_; }
-  void set_time_limit(int s) override { limit_ = s; }
-  double control_hz() const override { return 10; }
-  void reset(uint64_t) override {
-    x_ = 0;
-    steps_ = 0;
-    limit_ = 50;
-  }
-  Vec observation() const override { return Vec::Constant(1, x_); }
-  StepResult step(const Vec& a) override {
-    x_ += std::clamp(a[0], -1.f, 1.f);
-    ++steps_;
-    StepResult r;
-    r.success = success();
-    r.done = r.success || steps_ >= limit_;
-    return r;
-  }
-  bool success() const override { return x_ >= 10; }
-  int steps() const override { return steps_; }
-  std::vector<double> save_state() const override { return {x_, double(steps_)}; }
-  void restore_state(const std::vector<double>& s) override {
-    x_ = static_cast<float>(s[0]);
-    steps_ = static_cast<int>(s[1]);
-  }
-
- private:
-  float x_ = 0;
-  int steps_ = 0, limit_ = 50;
-};
+using fakes::LineEnv;
 
 class ForwardExpert : public Expert {
  public:
