@@ -6,6 +6,7 @@
 
 #include "core/chunks.h"
 #include "core/nn/policy_impl.h"
+#include "core/nn/fast_unet.h"
 
 namespace dd {
 namespace {
@@ -98,9 +99,11 @@ torch::Tensor DiffusionPolicy::Impl::sample(const torch::Tensor& obs, torch::Gen
   const std::vector<torch::Tensor> films = ema->film(ema->condition(t_all, obs.repeat({n, 1})));
   std::vector<torch::Tensor> step_films(films.size());
   torch::Tensor x = torch::randn({B, config.horizon, config.action_dim}, gen, torch::kFloat32);
+  const nn::FastDenoiser fast(*ema);
   for (int64_t i = 0; i < n; ++i) {
     for (size_t k = 0; k < films.size(); ++k) step_films[k] = films[k].narrow(0, i * B, B);
-    x = scheduler.step(ema->denoise(x, step_films), ts[static_cast<size_t>(i)], x, gen);
+    const torch::Tensor out = torch_denoise ? ema->denoise(x, step_films) : fast.denoise(x, step_films);
+    x = scheduler.step(out, ts[static_cast<size_t>(i)], x, gen);
   }
   return x.clamp(-1.0, 1.0);
 }

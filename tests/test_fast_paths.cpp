@@ -1,7 +1,9 @@
 // The fast inference paths compute what the reference paths compute: sampling with the conditioning
-// hoisted out of the denoising loop, and the scheduler's scalar step against its tensor formulas.
+// hoisted out of the denoising loop and the denoising passes on FastDenoiser, and the scheduler's
+// scalar step against its tensor formulas.
 #include <gtest/gtest.h>
 
+#include "core/nn/fast_unet.h"
 #include "core/nn/policy_impl.h"
 
 namespace dd {
@@ -24,6 +26,39 @@ TEST(FastPaths, HoistedConditioningSamplesMatchTheFullForwardPass) {
       EXPECT_TRUE(torch::allclose(fast, ref, 1e-4, 1e-5))
           << to_string(p) << " " << to_string(s) << " max diff " << (fast - ref).abs().max().item<float>();
     }
+  }
+}
+
+// The task presets' shapes: horizons 16, 32 and 64, down_dims 16,32,64, 32,64,128 and 64,128,256, perturbed
+// weights rather than fresh ones (GroupNorm's affine terms and biases away from their defaults).
+TEST(FastPaths, FastDenoiserMatchesTorchsDenoisingPass) {
+  struct Shape {
+    int obs, act, horizon;
+    const char* unet;
+  };
+  for (const Shape& shape : {Shape{24, 7, 32, "cpu"}, Shape{37, 10, 64, "cpu"}, Shape{4, 2, 16, "medium"}, Shape{5, 3, 8, "tiny"}}) {
+    PolicyConfig c;
+    c.obs_dim = shape.obs;
+    c.action_dim = shape.act;
+    c.horizon = shape.horizon;
+    c.unet = unet_preset(shape.unet);
+    DiffusionPolicy policy(c, 5, false);
+    auto& net = *policy.impl().ema;
+    torch::manual_seed(9);
+    {
+      torch::NoGradGuard no_grad;
+      for (auto& p : net.parameters()) p.add_(torch::randn_like(p) * 0.05);
+    }
+    const int64_t B = 3;
+    const torch::Tensor x = torch::randn({B, c.horizon, c.action_dim});
+    const torch::Tensor t = torch::tensor({0, 7, 15}, torch::kInt64);
+    const torch::Tensor obs = torch::rand({B, c.obs_dim}) * 2 - 1;
+    torch::NoGradGuard no_grad;
+    const std::vector<torch::Tensor> films = net.film(net.condition(t, obs));
+    const torch::Tensor ref = net.denoise(x, films);
+    const torch::Tensor fast = nn::FastDenoiser(net).denoise(x, films);
+    EXPECT_TRUE(torch::allclose(fast, ref, 1e-4, 1e-4))
+        << shape.unet << " T_p " << c.horizon << " max diff " << (fast - ref).abs().max().item<float>();
   }
 }
 

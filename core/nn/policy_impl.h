@@ -35,6 +35,9 @@ struct DiffusionPolicy::Impl {
   /// Reverse diffusion from noise for normalised obs (B, obs_dim) -> normalised chunks (B, T_p, A).
   /// The conditioning of every (row, timestep) is computed in one pass before the denoising loop.
   torch::Tensor sample(const torch::Tensor& obs, torch::Generator& gen) const;
+  /// sample() runs the denoising passes on nn::FastDenoiser unless this is set (then on torch's
+  /// operators, as before it existed: the benchmarks' baseline).
+  bool torch_denoise = false;
   /// The same computation with the full forward pass at every step (the reference for tests).
   torch::Tensor sample_reference(const torch::Tensor& obs, torch::Generator& gen) const;
 

@@ -15,6 +15,8 @@
 
 namespace dd::nn {
 
+class FastDenoiser;
+
 /// Conv1d -> GroupNorm -> Mish.
 struct Conv1dBlockImpl : torch::nn::Module {
   Conv1dBlockImpl(int in, int out, int kernel, int groups);
@@ -54,6 +56,7 @@ class ConditionalUnet1DImpl : public torch::nn::Module {
   torch::Tensor forward(const torch::Tensor& x, const torch::Tensor& t, const torch::Tensor& global_cond);
 
  private:
+  friend class FastDenoiser;  // reads the layers in place (core/nn/fast_unet.h)
   struct Level {
     ResBlock first{nullptr}, second{nullptr};
     torch::nn::Conv1d down{nullptr};            // stride-2 downsampling, empty on the last level

@@ -1,7 +1,8 @@
 // Speed of the diffusion policy's hot paths, for the paper's reference size (down_dims 64,128,256,
 // observation dim 20, action dim 10, T_p 16, T_d 16) and for the CPU default (down_dims 32,64,128):
 //   TrainStep     one gradient step at batch 256
-//   Sample        one 16-step DDPM sampling at batch 1
+//   Sample        one 16-step DDPM sampling at batch 1 (denoising passes on nn::FastDenoiser)
+//   SampleTorch   the same on torch's operators (the path before FastDenoiser, for the ratio)
 //   ExpectedLoss  one expected loss at N_b = 512
 //   Decision      sampling plus expected loss: what every control decision costs
 // libtorch runs with 2 intra-op threads (or $DD_THREADS).
@@ -11,6 +12,7 @@
 #include <memory>
 
 #include "core/chunks.h"
+#include "core/nn/policy_impl.h"
 #include "core/policy.h"
 #include "core/runtime.h"
 #include "core/synthetic.h"
@@ -47,8 +49,9 @@ void TrainStep(benchmark::State& state, const PolicyConfig& config) {
   for (auto _ : state) benchmark::DoNotOptimize(trainer.step());
 }
 
-void Sample(benchmark::State& state, const PolicyConfig& config) {
+void Sample(benchmark::State& state, const PolicyConfig& config, bool torch_denoise) {
   DiffusionPolicy policy(config, 0);
+  policy.impl().torch_denoise = torch_denoise;
   const Vec obs = bench_data().obs.row(0).transpose();
   uint64_t seed = 0;
   policy.sample(obs, seed++);
@@ -76,11 +79,13 @@ const PolicyConfig kReference = bench_config({64, 128, 256}, 128);
 const PolicyConfig kCpuDefault = bench_config(UnetConfig{}.down_dims, UnetConfig{}.step_embed_dim);
 
 BENCHMARK_CAPTURE(TrainStep, 64_128_256, kReference)->Name("BM_TrainStep_64_128_256")->Unit(benchmark::kMillisecond);
-BENCHMARK_CAPTURE(Sample, 64_128_256, kReference)->Name("BM_Sample_64_128_256")->Unit(benchmark::kMillisecond);
+BENCHMARK_CAPTURE(Sample, 64_128_256, kReference, false)->Name("BM_Sample_64_128_256")->Unit(benchmark::kMillisecond);
+BENCHMARK_CAPTURE(Sample, 64_128_256, kReference, true)->Name("BM_SampleTorch_64_128_256")->Unit(benchmark::kMillisecond);
 BENCHMARK_CAPTURE(ExpectedLoss, 64_128_256, kReference)->Name("BM_ExpectedLoss_64_128_256")->Unit(benchmark::kMillisecond);
 BENCHMARK_CAPTURE(Decision, 64_128_256, kReference)->Name("BM_Decision_64_128_256")->Unit(benchmark::kMillisecond);
 BENCHMARK_CAPTURE(TrainStep, 32_64_128, kCpuDefault)->Name("BM_TrainStep_32_64_128")->Unit(benchmark::kMillisecond);
-BENCHMARK_CAPTURE(Sample, 32_64_128, kCpuDefault)->Name("BM_Sample_32_64_128")->Unit(benchmark::kMillisecond);
+BENCHMARK_CAPTURE(Sample, 32_64_128, kCpuDefault, false)->Name("BM_Sample_32_64_128")->Unit(benchmark::kMillisecond);
+BENCHMARK_CAPTURE(Sample, 32_64_128, kCpuDefault, true)->Name("BM_SampleTorch_32_64_128")->Unit(benchmark::kMillisecond);
 BENCHMARK_CAPTURE(ExpectedLoss, 32_64_128, kCpuDefault)->Name("BM_ExpectedLoss_32_64_128")->Unit(benchmark::kMillisecond);
 BENCHMARK_CAPTURE(Decision, 32_64_128, kCpuDefault)->Name("BM_Decision_32_64_128")->Unit(benchmark::kMillisecond);
 

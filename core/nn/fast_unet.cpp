@@ -1,0 +1,200 @@
+#include "core/nn/fast_unet.h"
+
+#include <Eigen/Core>
+
+#include <algorithm>
+#include <cmath>
+
+
+// OpenBLAS (the BLAS libtorch runs on, see quickstart.sh) through its standard C interface,
+// declared here so the build needs no particular cblas.h.
+extern "C" void cblas_sgemm(int order, int trans_a, int trans_b, int m, int n, int k, float alpha, const float* a, int lda,
+                            const float* b, int ldb, float beta, float* c, int ldc);
+
+namespace dd::nn {
+namespace {
+
+constexpr int kRowMajor = 101, kNoTrans = 111, kTrans = 112;
+
+const float* data_of(const torch::Tensor& t) {
+  if (!t.defined()) return nullptr;
+  if (t.scalar_type() != torch::kFloat32 || !t.is_contiguous() || !t.device().is_cpu())
+    throw Error("fast denoiser: expected contiguous float32 CPU weights");
+  return t.data_ptr<float>();
+}
+
+int padding_of(const torch::nn::detail::conv_padding_t<1>& p) {
+  if (const auto* a = c10::get_if<torch::ExpandingArray<1>>(&p)) return static_cast<int>((**a)[0]);
+  throw Error("fast denoiser: only explicit convolution padding is supported");
+}
+
+}  // namespace
+
+FastDenoiser::Conv FastDenoiser::conv_of(const torch::nn::Conv1dImpl& m) {
+  const auto& o = m.options;
+  return {data_of(m.weight), data_of(m.bias), static_cast<int>(o.in_channels()), static_cast<int>(o.out_channels()),
+          static_cast<int>((*o.kernel_size())[0]), static_cast<int>((*o.stride())[0]), padding_of(o.padding())};
+}
+
+FastDenoiser::Conv FastDenoiser::conv_of(const torch::nn::ConvTranspose1dImpl& m) {
+  const auto& o = m.options;
+  if ((*o.output_padding())[0] != 0 || (*o.dilation())[0] != 1 || o.groups() != 1)
+    throw Error("fast denoiser: transposed convolution options beyond stride and padding");
+  return {data_of(m.weight), data_of(m.bias), static_cast<int>(o.in_channels()), static_cast<int>(o.out_channels()),
+          static_cast<int>((*o.kernel_size())[0]), static_cast<int>((*o.stride())[0]), padding_of(o.padding())};
+}
+
+FastDenoiser::Block FastDenoiser::block_of(const Conv1dBlockImpl& m) {
+  const auto& n = *m.norm;
+  return {conv_of(*m.conv),
+          {data_of(n.weight), data_of(n.bias), static_cast<int>(n.options.num_groups()), static_cast<float>(n.options.eps())}};
+}
+
+FastDenoiser::Res FastDenoiser::res_of(const ResBlockImpl& m) {
+  Res r{block_of(*m.block0), block_of(*m.block1), {}};
+  if (m.residual) r.residual = conv_of(*m.residual);
+  return r;
+}
+
+FastDenoiser::FastDenoiser(const ConditionalUnet1DImpl& net) {
+  for (const auto& l : net.down_)
+    down_.push_back({res_of(*l.first), res_of(*l.second), l.down ? conv_of(*l.down) : Conv{}});
+  mid0_ = res_of(*net.mid0_);
+  mid1_ = res_of(*net.mid1_);
+  for (const auto& l : net.up_) up_.push_back({res_of(*l.first), res_of(*l.second), conv_of(*l.up)});
+  final_block_ = block_of(*net.final_block_);
+  final_conv_ = conv_of(*net.final_conv_);
+  action_dim_ = final_conv_.out;
+}
+
+// out (C_out, T_out) = W (C_out, C_in k) x im2col(x) (C_in k, T_out) + b: torch's (out, in, k) weight
+// is that matrix as stored, with im2col rows ordered (channel, tap).
+FastDenoiser::Act FastDenoiser::conv(const Act& x, const Conv& c) {
+  const int t_out = (x.t + 2 * c.pad - c.k) / c.stride + 1;
+  Act y{c.out, t_out, std::vector<float>(static_cast<size_t>(c.out) * t_out)};
+  for (int o = 0; o < c.out; ++o) std::fill_n(y.v.data() + static_cast<size_t>(o) * t_out, t_out, c.b[o]);
+  const float* b = x.v.data();
+  std::vector<float> cols;
+  if (c.k != 1 || c.stride != 1 || c.pad != 0) {
+    cols.assign(static_cast<size_t>(c.in) * c.k * t_out, 0.f);
+    for (int i = 0; i < c.in; ++i)
+      for (int j = 0; j < c.k; ++j) {
+        float* row = cols.data() + (static_cast<size_t>(i) * c.k + j) * t_out;
+        const float* src = x.v.data() + static_cast<size_t>(i) * x.t;
+        for (int t = 0; t < t_out; ++t) {
+          const int s = t * c.stride + j - c.pad;
+          if (s >= 0 && s < x.t) row[t] = src[s];
+        }
+      }
+    b = cols.data();
+  }
+  cblas_sgemm(kRowMajor, kNoTrans, kNoTrans, c.out, t_out, c.in * c.k, 1.f, c.w, c.in * c.k, b, t_out, 1.f, y.v.data(), t_out);
+  return y;
+}
+
+// Y (C_out k, T) = W^T x with torch's (in, out, k) weight read as an (in, out k) matrix; each input
+// step t then adds tap j of Y into output step t * stride - pad + j.
+FastDenoiser::Act FastDenoiser::conv_transpose(const Act& x, const Conv& c) {
+  const int t_out = (x.t - 1) * c.stride - 2 * c.pad + c.k;
+  std::vector<float> cols(static_cast<size_t>(c.out) * c.k * x.t);
+  cblas_sgemm(kRowMajor, kTrans, kNoTrans, c.out * c.k, x.t, c.in, 1.f, c.w, c.out * c.k, x.v.data(), x.t, 0.f, cols.data(), x.t);
+  Act y{c.out, t_out, std::vector<float>(static_cast<size_t>(c.out) * t_out)};
+  for (int o = 0; o < c.out; ++o) {
+    float* dst = y.v.data() + static_cast<size_t>(o) * t_out;
+    std::fill_n(dst, t_out, c.b[o]);
+    for (int j = 0; j < c.k; ++j) {
+      const float* row = cols.data() + (static_cast<size_t>(o) * c.k + j) * x.t;
+      for (int t = 0; t < x.t; ++t) {
+        const int d = t * c.stride - c.pad + j;
+        if (d >= 0 && d < t_out) dst[d] += row[t];
+      }
+    }
+  }
+  return y;
+}
+
+// GroupNorm (biased variance over each group's channels and steps) then Mish, in place.
+// Mish(x) = x tanh(softplus(x)) = x n (n + 2) / (n (n + 2) + 2) with n = e^x.
+void FastDenoiser::norm_mish(Act& h, const Norm& n) {
+  const int per = h.c / n.groups;
+  const Eigen::Index len = static_cast<Eigen::Index>(per) * h.t;
+  for (int g = 0; g < n.groups; ++g) {
+    Eigen::Map<Eigen::ArrayXf> a(h.v.data() + static_cast<size_t>(g) * len, len);
+    const double mean = a.cast<double>().mean();
+    const double var = (a.cast<double>() - mean).square().mean();
+    const float inv = static_cast<float>(1.0 / std::sqrt(var + n.eps));
+    for (int i = 0; i < per; ++i) {
+      const int ch = g * per + i;
+      const float s = n.gamma[ch] * inv, b = n.beta[ch] - static_cast<float>(mean) * s;
+      auto row = a.segment(static_cast<Eigen::Index>(i) * h.t, h.t);
+      row = row * s + b;
+    }
+    const Eigen::ArrayXf e = a.min(20.f).exp();
+    const Eigen::ArrayXf q = e * (e + 2.f);
+    a = a * q / (q + 2.f);
+  }
+}
+
+FastDenoiser::Act FastDenoiser::res(const Act& x, const Res& r, const float* film) {
+  Act h = block(x, r.b0);
+  const int c = h.c;
+  for (int ch = 0; ch < c; ++ch) {
+    const float scale = film[ch], bias = film[c + ch];
+    float* row = h.v.data() + static_cast<size_t>(ch) * h.t;
+    for (int t = 0; t < h.t; ++t) row[t] = bias + scale * row[t];
+  }
+  h = block(h, r.b1);
+  if (r.residual.w) {
+    const Act skip = conv(x, r.residual);
+    for (size_t i = 0; i < h.v.size(); ++i) h.v[i] += skip.v[i];
+  } else {
+    for (size_t i = 0; i < h.v.size(); ++i) h.v[i] += x.v[i];
+  }
+  return h;
+}
+
+void FastDenoiser::denoise(const float* x, int horizon, const std::vector<const float*>& films, float* out) const {
+  const int A = action_dim_;
+  Act h{A, horizon, std::vector<float>(static_cast<size_t>(A) * horizon)};
+  for (int t = 0; t < horizon; ++t)  // (T_p, A) row-major in, channel-major (A, T_p) inside
+    for (int a = 0; a < A; ++a) h.v[static_cast<size_t>(a) * horizon + t] = x[static_cast<size_t>(t) * A + a];
+  size_t k = 0;  // films in the order ConditionalUnet1DImpl::film gives them
+  std::vector<Act> skips;
+  for (const Level& l : down_) {
+    h = res(h, l.first, films[k++]);
+    h = res(h, l.second, films[k++]);
+    skips.push_back(h);
+    if (l.resample.w) h = conv(h, l.resample);
+  }
+  h = res(h, mid0_, films[k++]);
+  h = res(h, mid1_, films[k++]);
+  for (const Level& l : up_) {
+    const Act& skip = skips.back();  // channel concatenation: h's channels, then the skip's
+    h.v.insert(h.v.end(), skip.v.begin(), skip.v.end());
+    h.c += skip.c;
+    skips.pop_back();
+    h = res(h, l.first, films[k++]);
+    h = res(h, l.second, films[k++]);
+    h = conv_transpose(h, l.resample);
+  }
+  h = conv(block(h, final_block_), final_conv_);
+  for (int t = 0; t < horizon; ++t)
+    for (int a = 0; a < A; ++a) out[static_cast<size_t>(t) * A + a] = h.v[static_cast<size_t>(a) * horizon + t];
+}
+
+torch::Tensor FastDenoiser::denoise(const torch::Tensor& x, const std::vector<torch::Tensor>& films) const {
+  const torch::Tensor xc = x.contiguous();
+  const int64_t B = xc.size(0), T = xc.size(1);
+  torch::Tensor out = torch::empty_like(xc);
+  std::vector<torch::Tensor> fc;
+  fc.reserve(films.size());
+  for (const auto& f : films) fc.push_back(f.contiguous());
+  std::vector<const float*> rows(films.size());
+  for (int64_t b = 0; b < B; ++b) {
+    for (size_t k = 0; k < fc.size(); ++k) rows[k] = fc[k].data_ptr<float>() + b * fc[k].size(1);
+    denoise(xc.data_ptr<float>() + b * xc.stride(0), static_cast<int>(T), rows, out.data_ptr<float>() + b * out.stride(0));
+  }
+  return out;
+}
+
+}  // namespace dd::nn

@@ -1,0 +1,82 @@
+// Small-batch inference of ConditionalUnet1D's denoising pass without torch's per-operator dispatch.
+//
+// Sampling one chunk runs the U-Net T_d times at batch 1 on a (channels x T_p) activation of a few
+// thousand values; there libtorch spends most of its time dispatching ~100 small operators per pass.
+// This runs the same pass as a handful of OpenBLAS sgemm calls (convolutions as im2col products, the
+// transposed convolution as a product and a scatter) and fused loops for GroupNorm, FiLM and Mish.
+// It reads the module's weights in place, so build one per pass over a network (it holds pointers
+// into the parameter tensors, which loading a checkpoint replaces); building it costs microseconds.
+// Internal to core: includes torch through unet.h.
+#pragma once
+
+#include <vector>
+
+#include "core/nn/unet.h"
+
+namespace dd::nn {
+
+class FastDenoiser {
+ public:
+  explicit FastDenoiser(const ConditionalUnet1DImpl& net);
+
+  /// One chunk: x is (T_p, A) row-major, films[k] points at the k-th residual block's FiLM row (scale
+  /// then bias, 2 C_k values, in ConditionalUnet1DImpl::film's order); writes (T_p, A) to out.
+  void denoise(const float* x, int horizon, const std::vector<const float*>& films, float* out) const;
+
+  /// The whole batch of one denoising step: x (B, T_p, A) and films[k] (B, 2 C_k), contiguous float.
+  torch::Tensor denoise(const torch::Tensor& x, const std::vector<torch::Tensor>& films) const;
+
+ private:
+  struct Conv {
+    const float* w = nullptr;  // (out, in, k) for a convolution, (in, out, k) for a transposed one
+    const float* b = nullptr;
+    int in = 0, out = 0, k = 1, stride = 1, pad = 0;
+  };
+  struct Norm {
+    const float* gamma = nullptr;
+    const float* beta = nullptr;
+    int groups = 1;
+    float eps = 1e-5f;
+  };
+  struct Block {  // Conv1d -> GroupNorm -> Mish
+    Conv conv;
+    Norm norm;
+  };
+  struct Res {
+    Block b0, b1;
+    Conv residual;  // w == nullptr: identity
+  };
+  struct Level {
+    Res first, second;
+    Conv resample;  // down: stride-2 convolution; up: transposed convolution; w == nullptr: none
+  };
+
+  /// A (C, T) activation, row-major: each channel's T values are contiguous (torch's layout at B = 1).
+  struct Act {
+    int c = 0, t = 0;
+    std::vector<float> v;
+  };
+
+  static Conv conv_of(const torch::nn::Conv1dImpl& m);
+  static Conv conv_of(const torch::nn::ConvTranspose1dImpl& m);
+  static Block block_of(const Conv1dBlockImpl& m);
+  static Res res_of(const ResBlockImpl& m);
+
+  static Act conv(const Act& x, const Conv& c);
+  static Act conv_transpose(const Act& x, const Conv& c);
+  static void norm_mish(Act& h, const Norm& n);
+  static Act block(const Act& x, const Block& b) {
+    Act h = conv(x, b.conv);
+    norm_mish(h, b.norm);
+    return h;
+  }
+  static Act res(const Act& x, const Res& r, const float* film);
+
+  std::vector<Level> down_, up_;
+  Res mid0_, mid1_;
+  Block final_block_;
+  Conv final_conv_;
+  int action_dim_ = 0;
+};
+
+}  // namespace dd::nn
