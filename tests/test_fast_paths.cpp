@@ -49,9 +49,10 @@ TEST(FastPaths, FastDenoiserMatchesTorchsDenoisingPass) {
       torch::NoGradGuard no_grad;
       for (auto& p : net.parameters()) p.add_(torch::randn_like(p) * 0.05);
     }
-    const int64_t B = 3;
+    // more rows than one block holds, so the blocks' seams are crossed
+    const int64_t B = nn::FastDenoiser::kColumnsPerBlock / c.horizon + 5;
     const torch::Tensor x = torch::randn({B, c.horizon, c.action_dim});
-    const torch::Tensor t = torch::tensor({0, 7, 15}, torch::kInt64);
+    const torch::Tensor t = torch::arange(B, torch::kInt64) % 16;
     const torch::Tensor obs = torch::rand({B, c.obs_dim}) * 2 - 1;
     torch::NoGradGuard no_grad;
     const std::vector<torch::Tensor> films = net.film(net.condition(t, obs));

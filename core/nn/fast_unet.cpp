@@ -67,82 +67,94 @@ FastDenoiser::FastDenoiser(const ConditionalUnet1DImpl& net) {
   action_dim_ = final_conv_.out;
 }
 
-// out (C_out, T_out) = W (C_out, C_in k) x im2col(x) (C_in k, T_out) + b: torch's (out, in, k) weight
-// is that matrix as stored, with im2col rows ordered (channel, tap).
+// Activations are (C, B T): row c holds channel c of every batch row, each row's T steps contiguous.
+
+// out (C_out, B T_out) = W (C_out, C_in k) x im2col(x) (C_in k, B T_out) + b: torch's (out, in, k)
+// weight is that matrix as stored, with im2col rows ordered (channel, tap).
 FastDenoiser::Act FastDenoiser::conv(const Act& x, const Conv& c) {
-  const int t_out = (x.t + 2 * c.pad - c.k) / c.stride + 1;
-  Act y{c.out, t_out, std::vector<float>(static_cast<size_t>(c.out) * t_out)};
-  for (int o = 0; o < c.out; ++o) std::fill_n(y.v.data() + static_cast<size_t>(o) * t_out, t_out, c.b[o]);
+  const int t_out = (x.t + 2 * c.pad - c.k) / c.stride + 1, n = x.b * t_out;
+  Act y{c.out, x.b, t_out, std::vector<float>(static_cast<size_t>(c.out) * n)};
+  for (int o = 0; o < c.out; ++o) std::fill_n(y.v.data() + static_cast<size_t>(o) * n, n, c.b[o]);
   const float* b = x.v.data();
   std::vector<float> cols;
   if (c.k != 1 || c.stride != 1 || c.pad != 0) {
-    cols.assign(static_cast<size_t>(c.in) * c.k * t_out, 0.f);
+    cols.assign(static_cast<size_t>(c.in) * c.k * n, 0.f);
     for (int i = 0; i < c.in; ++i)
-      for (int j = 0; j < c.k; ++j) {
-        float* row = cols.data() + (static_cast<size_t>(i) * c.k + j) * t_out;
-        const float* src = x.v.data() + static_cast<size_t>(i) * x.t;
-        for (int t = 0; t < t_out; ++t) {
-          const int s = t * c.stride + j - c.pad;
-          if (s >= 0 && s < x.t) row[t] = src[s];
+      for (int j = 0; j < c.k; ++j)
+        for (int r = 0; r < x.b; ++r) {
+          float* dst = cols.data() + (static_cast<size_t>(i) * c.k + j) * n + static_cast<size_t>(r) * t_out;
+          const float* src = x.v.data() + (static_cast<size_t>(i) * x.b + r) * x.t;
+          for (int t = 0; t < t_out; ++t) {
+            const int s = t * c.stride + j - c.pad;
+            if (s >= 0 && s < x.t) dst[t] = src[s];
+          }
         }
-      }
     b = cols.data();
   }
-  cblas_sgemm(kRowMajor, kNoTrans, kNoTrans, c.out, t_out, c.in * c.k, 1.f, c.w, c.in * c.k, b, t_out, 1.f, y.v.data(), t_out);
+  cblas_sgemm(kRowMajor, kNoTrans, kNoTrans, c.out, n, c.in * c.k, 1.f, c.w, c.in * c.k, b, n, 1.f, y.v.data(), n);
   return y;
 }
 
-// Y (C_out k, T) = W^T x with torch's (in, out, k) weight read as an (in, out k) matrix; each input
-// step t then adds tap j of Y into output step t * stride - pad + j.
+// Y (C_out k, B T) = W^T x with torch's (in, out, k) weight read as an (in, out k) matrix; each input
+// step t then adds tap j of Y into output step t * stride - pad + j of the same batch row.
 FastDenoiser::Act FastDenoiser::conv_transpose(const Act& x, const Conv& c) {
-  const int t_out = (x.t - 1) * c.stride - 2 * c.pad + c.k;
-  std::vector<float> cols(static_cast<size_t>(c.out) * c.k * x.t);
-  cblas_sgemm(kRowMajor, kTrans, kNoTrans, c.out * c.k, x.t, c.in, 1.f, c.w, c.out * c.k, x.v.data(), x.t, 0.f, cols.data(), x.t);
-  Act y{c.out, t_out, std::vector<float>(static_cast<size_t>(c.out) * t_out)};
-  for (int o = 0; o < c.out; ++o) {
-    float* dst = y.v.data() + static_cast<size_t>(o) * t_out;
-    std::fill_n(dst, t_out, c.b[o]);
-    for (int j = 0; j < c.k; ++j) {
-      const float* row = cols.data() + (static_cast<size_t>(o) * c.k + j) * x.t;
-      for (int t = 0; t < x.t; ++t) {
-        const int d = t * c.stride - c.pad + j;
-        if (d >= 0 && d < t_out) dst[d] += row[t];
+  const int t_out = (x.t - 1) * c.stride - 2 * c.pad + c.k, n = x.b * x.t;
+  std::vector<float> cols(static_cast<size_t>(c.out) * c.k * n);
+  cblas_sgemm(kRowMajor, kTrans, kNoTrans, c.out * c.k, n, c.in, 1.f, c.w, c.out * c.k, x.v.data(), n, 0.f, cols.data(), n);
+  Act y{c.out, x.b, t_out, std::vector<float>(static_cast<size_t>(c.out) * x.b * t_out)};
+  for (int o = 0; o < c.out; ++o)
+    for (int r = 0; r < x.b; ++r) {
+      float* dst = y.v.data() + (static_cast<size_t>(o) * x.b + r) * t_out;
+      std::fill_n(dst, t_out, c.b[o]);
+      for (int j = 0; j < c.k; ++j) {
+        const float* row = cols.data() + (static_cast<size_t>(o) * c.k + j) * n + static_cast<size_t>(r) * x.t;
+        for (int t = 0; t < x.t; ++t) {
+          const int d = t * c.stride - c.pad + j;
+          if (d >= 0 && d < t_out) dst[d] += row[t];
+        }
       }
     }
-  }
   return y;
 }
 
-// GroupNorm (biased variance over each group's channels and steps) then Mish, in place.
-// Mish(x) = x tanh(softplus(x)) = x n (n + 2) / (n (n + 2) + 2) with n = e^x.
+// GroupNorm (biased variance over each batch row's group of channels and steps), then Mish, in
+// place. Mish(x) = x tanh(softplus(x)) = x q / (q + 2) with q = e^x (e^x + 2).
 void FastDenoiser::norm_mish(Act& h, const Norm& n) {
   const int per = h.c / n.groups;
-  const Eigen::Index len = static_cast<Eigen::Index>(per) * h.t;
-  for (int g = 0; g < n.groups; ++g) {
-    Eigen::Map<Eigen::ArrayXf> a(h.v.data() + static_cast<size_t>(g) * len, len);
-    const double mean = a.cast<double>().mean();
-    const double var = (a.cast<double>() - mean).square().mean();
-    const float inv = static_cast<float>(1.0 / std::sqrt(var + n.eps));
-    for (int i = 0; i < per; ++i) {
-      const int ch = g * per + i;
-      const float s = n.gamma[ch] * inv, b = n.beta[ch] - static_cast<float>(mean) * s;
-      auto row = a.segment(static_cast<Eigen::Index>(i) * h.t, h.t);
-      row = row * s + b;
+  const size_t row = static_cast<size_t>(h.b) * h.t;  // one channel's values
+  for (int r = 0; r < h.b; ++r)
+    for (int g = 0; g < n.groups; ++g) {
+      double sum = 0, sq = 0;
+      for (int i = 0; i < per; ++i) {
+        const Eigen::Map<const Eigen::ArrayXf> a(h.v.data() + (g * per + i) * row + static_cast<size_t>(r) * h.t, h.t);
+        sum += a.cast<double>().sum();
+        sq += a.cast<double>().square().sum();
+      }
+      const double count = static_cast<double>(per) * h.t, mean = sum / count;
+      const float inv = static_cast<float>(1.0 / std::sqrt(std::max(sq / count - mean * mean, 0.0) + n.eps));
+      for (int i = 0; i < per; ++i) {
+        const int ch = g * per + i;
+        const float s = n.gamma[ch] * inv, b = n.beta[ch] - static_cast<float>(mean) * s;
+        Eigen::Map<Eigen::ArrayXf> a(h.v.data() + ch * row + static_cast<size_t>(r) * h.t, h.t);
+        a = a * s + b;
+      }
     }
-    const Eigen::ArrayXf e = a.min(20.f).exp();
-    const Eigen::ArrayXf q = e * (e + 2.f);
-    a = a * q / (q + 2.f);
-  }
+  Eigen::Map<Eigen::ArrayXf> a(h.v.data(), static_cast<Eigen::Index>(h.v.size()));
+  const Eigen::ArrayXf e = a.min(20.f).exp();
+  const Eigen::ArrayXf q = e * (e + 2.f);
+  a = a * q / (q + 2.f);
 }
 
-FastDenoiser::Act FastDenoiser::res(const Act& x, const Res& r, const float* film) {
+FastDenoiser::Act FastDenoiser::res(const Act& x, const Res& r, const Film& film) {
   Act h = block(x, r.b0);
   const int c = h.c;
-  for (int ch = 0; ch < c; ++ch) {
-    const float scale = film[ch], bias = film[c + ch];
-    float* row = h.v.data() + static_cast<size_t>(ch) * h.t;
-    for (int t = 0; t < h.t; ++t) row[t] = bias + scale * row[t];
-  }
+  for (int ch = 0; ch < c; ++ch)
+    for (int b = 0; b < h.b; ++b) {
+      const float* f = film.data + static_cast<size_t>(b) * film.stride;
+      const float scale = f[ch], bias = f[c + ch];
+      float* row = h.v.data() + (static_cast<size_t>(ch) * h.b + b) * h.t;
+      for (int t = 0; t < h.t; ++t) row[t] = bias + scale * row[t];
+    }
   h = block(h, r.b1);
   if (r.residual.w) {
     const Act skip = conv(x, r.residual);
@@ -153,11 +165,13 @@ FastDenoiser::Act FastDenoiser::res(const Act& x, const Res& r, const float* fil
   return h;
 }
 
-void FastDenoiser::denoise(const float* x, int horizon, const std::vector<const float*>& films, float* out) const {
+void FastDenoiser::denoise(const float* x, int batch, int horizon, const std::vector<Film>& films, float* out) const {
   const int A = action_dim_;
-  Act h{A, horizon, std::vector<float>(static_cast<size_t>(A) * horizon)};
-  for (int t = 0; t < horizon; ++t)  // (T_p, A) row-major in, channel-major (A, T_p) inside
-    for (int a = 0; a < A; ++a) h.v[static_cast<size_t>(a) * horizon + t] = x[static_cast<size_t>(t) * A + a];
+  Act h{A, batch, horizon, std::vector<float>(static_cast<size_t>(A) * batch * horizon)};
+  for (int b = 0; b < batch; ++b)  // (B, T_p, A) row-major in, channel-major (A, B T_p) inside
+    for (int t = 0; t < horizon; ++t)
+      for (int a = 0; a < A; ++a)
+        h.v[(static_cast<size_t>(a) * batch + b) * horizon + t] = x[(static_cast<size_t>(b) * horizon + t) * A + a];
   size_t k = 0;  // films in the order ConditionalUnet1DImpl::film gives them
   std::vector<Act> skips;
   for (const Level& l : down_) {
@@ -178,8 +192,10 @@ void FastDenoiser::denoise(const float* x, int horizon, const std::vector<const 
     h = conv_transpose(h, l.resample);
   }
   h = conv(block(h, final_block_), final_conv_);
-  for (int t = 0; t < horizon; ++t)
-    for (int a = 0; a < A; ++a) out[static_cast<size_t>(t) * A + a] = h.v[static_cast<size_t>(a) * horizon + t];
+  for (int b = 0; b < batch; ++b)
+    for (int t = 0; t < horizon; ++t)
+      for (int a = 0; a < A; ++a)
+        out[(static_cast<size_t>(b) * horizon + t) * A + a] = h.v[(static_cast<size_t>(a) * batch + b) * horizon + t];
 }
 
 torch::Tensor FastDenoiser::denoise(const torch::Tensor& x, const std::vector<torch::Tensor>& films) const {
@@ -189,10 +205,14 @@ torch::Tensor FastDenoiser::denoise(const torch::Tensor& x, const std::vector<to
   std::vector<torch::Tensor> fc;
   fc.reserve(films.size());
   for (const auto& f : films) fc.push_back(f.contiguous());
-  std::vector<const float*> rows(films.size());
-  for (int64_t b = 0; b < B; ++b) {
-    for (size_t k = 0; k < fc.size(); ++k) rows[k] = fc[k].data_ptr<float>() + b * fc[k].size(1);
-    denoise(xc.data_ptr<float>() + b * xc.stride(0), static_cast<int>(T), rows, out.data_ptr<float>() + b * out.stride(0));
+  // Blocks of rows small enough that a block's im2col buffers stay in cache.
+  const int64_t per_block = std::max<int64_t>(1, kColumnsPerBlock / T);
+  std::vector<Film> rows(films.size());
+  for (int64_t b0 = 0; b0 < B; b0 += per_block) {
+    const int64_t n = std::min(per_block, B - b0);
+    for (size_t k = 0; k < fc.size(); ++k) rows[k] = {fc[k].data_ptr<float>() + b0 * fc[k].size(1), fc[k].size(1)};
+    denoise(xc.data_ptr<float>() + b0 * xc.stride(0), static_cast<int>(n), static_cast<int>(T), rows,
+            out.data_ptr<float>() + b0 * out.stride(0));
   }
   return out;
 }

@@ -1,9 +1,11 @@
-// Small-batch inference of ConditionalUnet1D's denoising pass without torch's per-operator dispatch.
+// Inference of ConditionalUnet1D's denoising pass without torch's per-operator dispatch.
 //
 // Sampling one chunk runs the U-Net T_d times at batch 1 on a (channels x T_p) activation of a few
 // thousand values; there libtorch spends most of its time dispatching ~100 small operators per pass.
 // This runs the same pass as a handful of OpenBLAS sgemm calls (convolutions as im2col products, the
 // transposed convolution as a product and a scatter) and fused loops for GroupNorm, FiLM and Mish.
+// Batches (the expected loss's N_b rows) run in blocks of rows whose buffers stay in cache, every
+// row of a block in the same sgemm.
 // It reads the module's weights in place, so build one per pass over a network (it holds pointers
 // into the parameter tensors, which loading a checkpoint replaces); building it costs microseconds.
 // Internal to core: includes torch through unet.h.
@@ -19,12 +21,19 @@ class FastDenoiser {
  public:
   explicit FastDenoiser(const ConditionalUnet1DImpl& net);
 
-  /// One chunk: x is (T_p, A) row-major, films[k] points at the k-th residual block's FiLM row (scale
-  /// then bias, 2 C_k values, in ConditionalUnet1DImpl::film's order); writes (T_p, A) to out.
-  void denoise(const float* x, int horizon, const std::vector<const float*>& films, float* out) const;
+  /// FiLM rows of one residual block: scale then bias (2 C values) per batch row, `stride` apart.
+  struct Film {
+    const float* data = nullptr;
+    int64_t stride = 0;
+  };
+  /// x is (batch, T_p, A) row-major; films[k] holds the k-th residual block's FiLM rows (in
+  /// ConditionalUnet1DImpl::film's order); writes (batch, T_p, A) to out.
+  void denoise(const float* x, int batch, int horizon, const std::vector<Film>& films, float* out) const;
 
-  /// The whole batch of one denoising step: x (B, T_p, A) and films[k] (B, 2 C_k), contiguous float.
+  /// A whole batch: x (B, T_p, A) and films[k] (B, 2 C_k), float32; run in blocks of rows.
   torch::Tensor denoise(const torch::Tensor& x, const std::vector<torch::Tensor>& films) const;
+
+  static constexpr int64_t kColumnsPerBlock = 1024;  // batch rows x T_p per block
 
  private:
   struct Conv {
@@ -51,9 +60,9 @@ class FastDenoiser {
     Conv resample;  // down: stride-2 convolution; up: transposed convolution; w == nullptr: none
   };
 
-  /// A (C, T) activation, row-major: each channel's T values are contiguous (torch's layout at B = 1).
+  /// A (C, B, T) activation, row-major: channel c's values for batch row b at v[(c B + b) T ...].
   struct Act {
-    int c = 0, t = 0;
+    int c = 0, b = 0, t = 0;
     std::vector<float> v;
   };
 
@@ -70,7 +79,7 @@ class FastDenoiser {
     norm_mish(h, b.norm);
     return h;
   }
-  static Act res(const Act& x, const Res& r, const float* film);
+  static Act res(const Act& x, const Res& r, const Film& film);
 
   std::vector<Level> down_, up_;
   Res mid0_, mid1_;

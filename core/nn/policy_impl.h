@@ -36,7 +36,7 @@ struct DiffusionPolicy::Impl {
   /// The conditioning of every (row, timestep) is computed in one pass before the denoising loop.
   torch::Tensor sample(const torch::Tensor& obs, torch::Generator& gen) const;
   /// sample() runs the denoising passes on nn::FastDenoiser unless this is set (then on torch's
-  /// operators, as before it existed: the benchmarks' baseline).
+  /// operators, as before it existed: the benchmarks' baseline). expected_loss() stays on torch's.
   bool torch_denoise = false;
   /// The same computation with the full forward pass at every step (the reference for tests).
   torch::Tensor sample_reference(const torch::Tensor& obs, torch::Generator& gen) const;

@@ -2,7 +2,7 @@
 // observation dim 20, action dim 10, T_p 16, T_d 16) and for the CPU default (down_dims 32,64,128):
 //   TrainStep     one gradient step at batch 256
 //   Sample        one 16-step DDPM sampling at batch 1 (denoising passes on nn::FastDenoiser)
-//   SampleTorch   the same on torch's operators (the path before FastDenoiser, for the ratio)
+//   ...Torch      the same on torch's operators (the path before FastDenoiser, for the ratio)
 //   ExpectedLoss  one expected loss at N_b = 512
 //   Decision      sampling plus expected loss: what every control decision costs
 // libtorch runs with 2 intra-op threads (or $DD_THREADS).
@@ -67,8 +67,9 @@ void ExpectedLoss(benchmark::State& state, const PolicyConfig& config) {
   for (auto _ : state) benchmark::DoNotOptimize(policy.expected_loss(obs, chunk, seed++, kDefaultLossSamples));
 }
 
-void Decision(benchmark::State& state, const PolicyConfig& config) {
+void Decision(benchmark::State& state, const PolicyConfig& config, bool torch_denoise) {
   DiffusionPolicy policy(config, 0);
+  policy.impl().torch_denoise = torch_denoise;
   const Vec obs = bench_data().obs.row(0).transpose();
   uint64_t seed = 0;
   policy.decide(obs, seed++);
@@ -82,12 +83,14 @@ BENCHMARK_CAPTURE(TrainStep, 64_128_256, kReference)->Name("BM_TrainStep_64_128_
 BENCHMARK_CAPTURE(Sample, 64_128_256, kReference, false)->Name("BM_Sample_64_128_256")->Unit(benchmark::kMillisecond);
 BENCHMARK_CAPTURE(Sample, 64_128_256, kReference, true)->Name("BM_SampleTorch_64_128_256")->Unit(benchmark::kMillisecond);
 BENCHMARK_CAPTURE(ExpectedLoss, 64_128_256, kReference)->Name("BM_ExpectedLoss_64_128_256")->Unit(benchmark::kMillisecond);
-BENCHMARK_CAPTURE(Decision, 64_128_256, kReference)->Name("BM_Decision_64_128_256")->Unit(benchmark::kMillisecond);
+BENCHMARK_CAPTURE(Decision, 64_128_256, kReference, false)->Name("BM_Decision_64_128_256")->Unit(benchmark::kMillisecond);
+BENCHMARK_CAPTURE(Decision, 64_128_256, kReference, true)->Name("BM_DecisionTorch_64_128_256")->Unit(benchmark::kMillisecond);
 BENCHMARK_CAPTURE(TrainStep, 32_64_128, kCpuDefault)->Name("BM_TrainStep_32_64_128")->Unit(benchmark::kMillisecond);
 BENCHMARK_CAPTURE(Sample, 32_64_128, kCpuDefault, false)->Name("BM_Sample_32_64_128")->Unit(benchmark::kMillisecond);
 BENCHMARK_CAPTURE(Sample, 32_64_128, kCpuDefault, true)->Name("BM_SampleTorch_32_64_128")->Unit(benchmark::kMillisecond);
 BENCHMARK_CAPTURE(ExpectedLoss, 32_64_128, kCpuDefault)->Name("BM_ExpectedLoss_32_64_128")->Unit(benchmark::kMillisecond);
-BENCHMARK_CAPTURE(Decision, 32_64_128, kCpuDefault)->Name("BM_Decision_32_64_128")->Unit(benchmark::kMillisecond);
+BENCHMARK_CAPTURE(Decision, 32_64_128, kCpuDefault, false)->Name("BM_Decision_32_64_128")->Unit(benchmark::kMillisecond);
+BENCHMARK_CAPTURE(Decision, 32_64_128, kCpuDefault, true)->Name("BM_DecisionTorch_32_64_128")->Unit(benchmark::kMillisecond);
 
 }  // namespace
 }  // namespace dd
