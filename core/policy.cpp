@@ -98,13 +98,35 @@ torch::Tensor DiffusionPolicy::Impl::sample(const torch::Tensor& obs, torch::Gen
   // Condition all n * B (timestep, row) pairs at once, timestep-major, and slice per step.
   const torch::Tensor t_all = torch::tensor(ts, torch::kInt64).repeat_interleave(B);
   const std::vector<torch::Tensor> films = ema->film(ema->condition(t_all, obs.repeat({n, 1})));
-  std::vector<torch::Tensor> step_films(films.size());
   torch::Tensor x = torch::randn({B, config.horizon, config.action_dim}, gen, torch::kFloat32);
+  if (torch_denoise) {
+    std::vector<torch::Tensor> step_films(films.size());
+    for (int64_t i = 0; i < n; ++i) {
+      for (size_t k = 0; k < films.size(); ++k) step_films[k] = films[k].narrow(0, i * B, B);
+      x = scheduler.step(ema->denoise(x, step_films), ts[static_cast<size_t>(i)], x, gen);
+    }
+    return x.clamp(-1.0, 1.0);
+  }
+  // The loop on raw floats: the denoising pass on FastDenoiser, the scheduler's scalar step, and the
+  // same generator draws in the same order as the tensor path.
   const nn::FastDenoiser fast(*ema);
+  const int64_t per_block = std::max<int64_t>(1, nn::FastDenoiser::kColumnsPerBlock / config.horizon);
+  const size_t chunk = static_cast<size_t>(config.horizon) * config.action_dim;
+  std::vector<torch::Tensor> fc;
+  for (const auto& f : films) fc.push_back(f.contiguous());
+  std::vector<nn::FastDenoiser::Film> rows(films.size());
+  std::vector<float> out(static_cast<size_t>(B) * chunk);
+  float* xs = x.data_ptr<float>();
   for (int64_t i = 0; i < n; ++i) {
-    for (size_t k = 0; k < films.size(); ++k) step_films[k] = films[k].narrow(0, i * B, B);
-    const torch::Tensor out = torch_denoise ? ema->denoise(x, step_films) : fast.denoise(x, step_films);
-    x = scheduler.step(out, ts[static_cast<size_t>(i)], x, gen);
+    const int64_t t = ts[static_cast<size_t>(i)];
+    for (int64_t b0 = 0; b0 < B; b0 += per_block) {
+      const int64_t m = std::min(per_block, B - b0);
+      for (size_t k = 0; k < fc.size(); ++k)
+        rows[k] = {fc[k].data_ptr<float>() + (i * B + b0) * fc[k].size(1), fc[k].size(1)};
+      fast.denoise(xs + b0 * chunk, static_cast<int>(m), config.horizon, rows, out.data() + b0 * chunk);
+    }
+    const torch::Tensor noise = scheduler.step_draws_noise(t) ? torch::randn(x.sizes(), gen, x.options()) : torch::Tensor();
+    scheduler.step(out.data(), t, xs, out.size(), noise.defined() ? noise.data_ptr<float>() : nullptr);
   }
   return x.clamp(-1.0, 1.0);
 }

@@ -1,5 +1,7 @@
 #include "core/nn/scheduler.h"
 
+#include <algorithm>
+
 #include <cmath>
 
 namespace dd::nn {
@@ -122,6 +124,34 @@ torch::Tensor NoiseScheduler::step(const torch::Tensor& output, int64_t t, const
     mean.add_(torch::randn(x_t.sizes(), gen, x_t.options()), std::sqrt(var));
   }
   return mean;
+}
+
+void NoiseScheduler::step(const float* output, int64_t t, float* x, size_t n, const float* noise) const {
+  const int64_t prev = t - config_.num_train_timesteps / config_.num_inference_steps;
+  const double ab_t = abar(t), ab_prev = abar(prev);
+  const auto a = static_cast<float>(std::sqrt(ab_t)), s = static_cast<float>(std::sqrt(1.0 - ab_t));
+  const double alpha_t = ab_t / ab_prev, beta_t = 1.0 - alpha_t;
+  const bool ddim = config_.sampler == SamplerType::kDdim;
+  // DDIM: sqrt(abar_prev) x0 + sqrt(1 - abar_prev) eps; DDPM: the posterior mean plus noise.
+  const auto c_x0 = static_cast<float>(ddim ? std::sqrt(ab_prev) : std::sqrt(ab_prev) * beta_t / (1.0 - ab_t));
+  const auto c_xt = static_cast<float>(std::sqrt(alpha_t) * (1.0 - ab_prev) / (1.0 - ab_t));
+  const auto c_eps = static_cast<float>(std::sqrt(1.0 - ab_prev));
+  const auto sd = static_cast<float>(std::sqrt(std::max((1.0 - ab_prev) / (1.0 - ab_t) * beta_t, 1e-20)));
+  const bool draws = step_draws_noise(t);
+  for (size_t i = 0; i < n; ++i) {
+    float x0 = 0;
+    switch (config_.prediction) {
+      case PredictionType::kEpsilon: x0 = (x[i] - s * output[i]) / a; break;
+      case PredictionType::kSample: x0 = output[i]; break;
+      case PredictionType::kVelocity: x0 = a * x[i] - s * output[i]; break;
+    }
+    if (config_.clip_sample) x0 = std::clamp(x0, -1.f, 1.f);
+    if (ddim) {
+      x[i] = c_x0 * x0 + c_eps * ((x[i] - a * x0) / s);
+    } else {
+      x[i] = x0 * c_x0 + c_xt * x[i] + (draws ? sd * noise[i] : 0.f);
+    }
+  }
 }
 
 }  // namespace dd::nn

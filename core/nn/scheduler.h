@@ -35,6 +35,11 @@ class NoiseScheduler {
   /// One reverse step from timestep t to the next visited one; DDPM adds noise from `gen`.
   torch::Tensor step(const torch::Tensor& output, int64_t t, const torch::Tensor& x_t,
                      torch::Generator& gen) const;
+  /// The same step on n raw floats in place: x_t becomes x_prev. noise (n values) is the DDPM step's
+  /// standard normal draw, unused by DDIM and at t = 0 (pass nullptr there).
+  void step(const float* output, int64_t t, float* x, size_t n, const float* noise) const;
+  /// Whether step(t) draws noise: DDPM above t = 0.
+  bool step_draws_noise(int64_t t) const { return config_.sampler == SamplerType::kDdpm && t > 0; }
 
  private:
   // sqrt(abar_t) and sqrt(1 - abar_t) gathered at t, shaped to broadcast against x.
