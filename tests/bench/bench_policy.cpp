@@ -5,6 +5,8 @@
 //   ...Torch      the same on torch's operators (the path before FastDenoiser, for the ratio)
 //   ExpectedLoss  one expected loss at N_b = 512
 //   Decision      sampling plus expected loss: what every control decision costs
+//   Sgemm         a large square sgemm through the same OpenBLAS: this machine's practical fp32
+//                 peak, the yardstick for the others (counter GFLOPS)
 // libtorch runs with 2 intra-op threads (or $DD_THREADS).
 #include <benchmark/benchmark.h>
 #include <spdlog/spdlog.h>
@@ -75,6 +77,19 @@ void Decision(benchmark::State& state, const PolicyConfig& config, bool torch_de
   policy.decide(obs, seed++);
   for (auto _ : state) benchmark::DoNotOptimize(policy.decide(obs, seed++, kDefaultLossSamples));
 }
+
+// What the machine's BLAS reaches on a large product, as GFLOPS.
+void Sgemm(benchmark::State& state) {
+  const int n = static_cast<int>(state.range(0));
+  const torch::Tensor a = torch::rand({n, n}), b = torch::rand({n, n});
+  torch::Tensor c = torch::mm(a, b);
+  for (auto _ : state) {
+    torch::mm_out(c, a, b);
+    benchmark::DoNotOptimize(c.data_ptr<float>());
+  }
+  state.counters["GFLOPS"] = benchmark::Counter(2.0 * n * n * n, benchmark::Counter::kIsIterationInvariantRate, benchmark::Counter::kIs1000);
+}
+BENCHMARK(Sgemm)->Arg(2048)->Unit(benchmark::kMillisecond)->UseRealTime();
 
 const PolicyConfig kReference = bench_config({64, 128, 256}, 128);
 const PolicyConfig kCpuDefault = bench_config(UnetConfig{}.down_dims, UnetConfig{}.step_embed_dim);

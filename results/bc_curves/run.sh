@@ -1,0 +1,27 @@
+#!/usr/bin/env bash
+# The behaviour-cloning runs behind results/bc_curves: one `diffdagger train` per folder, then
+# `diffdagger curves` per task. Resumable: a run whose summary.json exists is skipped. Each run takes
+# one thread (set DD_THREADS to change it); on 2 cores run two of these scripts' runs side by side at most.
+# Usage: results/bc_curves/run.sh [RUN...]   (from the repository root; default: every run below)
+# Runs made before an observation change (stack n60_6k_obs31_unpinned, n60_16k_obs31; push
+# n100_12k_cw with 20 values) are kept as history; their commands cannot be replayed on today's tasks.
+set -euo pipefail
+cd "$(dirname "$0")/../.."
+bin=${DD_BIN:-build/app/diffdagger}
+declare -A runs=(
+  [stack/n60_8k_obs37]="--task stack --demos 60 --steps 8000 --batch 128 --eval-every 4000 --eval 50"
+  [stack/n30_8k_obs37]="--task stack --demos 30 --steps 8000 --batch 128 --eval-every 4000 --eval 50"
+  [push_1expert/n100_16k_obs24]="--task push_1expert --demos 100 --steps 16000 --batch 128 --eval-every 8000 --curve-eval 30 --eval 100"
+  [push_1expert/n100_16k_obs24_ccw]="--task push_1expert --expert ccw --demos 100 --steps 16000 --batch 128 --eval-every 8000 --curve-eval 30 --eval 100"
+  [plug/n100_8k]="--task plug --demos 100 --steps 8000 --batch 128 --eval-every 4000 --eval 50"
+)
+selected=("$@")
+[[ ${#selected[@]} -gt 0 ]] || selected=("${!runs[@]}")
+for run in "${selected[@]}"; do
+  out=results/bc_curves/$run
+  [[ -f $out/summary.json ]] && { echo "$run: done"; continue; }
+  [[ -n ${runs[$run]:-} ]] || { echo "$run: unknown run" >&2; exit 2; }
+  # shellcheck disable=SC2086
+  "$bin" --threads "${DD_THREADS:-1}" train ${runs[$run]} --out "$out"
+  "$bin" curves "results/bc_curves/${run%%/*}"
+done
