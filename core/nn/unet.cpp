@@ -1,5 +1,7 @@
 #include "core/nn/unet.h"
 
+#include "core/nn/mish.h"
+
 #include <cmath>
 
 namespace dd::nn {
@@ -17,7 +19,7 @@ Conv1dBlockImpl::Conv1dBlockImpl(int in, int out, int kernel, int groups) {
   norm = register_module("norm", torch::nn::GroupNorm(torch::nn::GroupNormOptions(groups, out)));
 }
 
-torch::Tensor Conv1dBlockImpl::forward(const torch::Tensor& x) { return torch::mish(norm(conv(x))); }
+torch::Tensor Conv1dBlockImpl::forward(const torch::Tensor& x) { return nn::mish(norm(conv(x))); }
 
 ResBlockImpl::ResBlockImpl(int in, int out, int cond_dim, int kernel, int groups) : out_channels(out) {
   block0 = register_module("block0", Conv1dBlock(in, out, kernel, groups));
@@ -26,7 +28,7 @@ ResBlockImpl::ResBlockImpl(int in, int out, int cond_dim, int kernel, int groups
   if (in != out) residual = register_module("residual", torch::nn::Conv1d(torch::nn::Conv1dOptions(in, out, 1)));
 }
 
-torch::Tensor ResBlockImpl::film(const torch::Tensor& cond) { return film_proj(torch::mish(cond)); }
+torch::Tensor ResBlockImpl::film(const torch::Tensor& cond) { return film_proj(nn::mish(cond)); }
 
 torch::Tensor ResBlockImpl::forward(const torch::Tensor& x, const torch::Tensor& film) {
   torch::Tensor h = block0(x);
@@ -82,7 +84,7 @@ ResBlock ConditionalUnet1DImpl::add_res(const std::string& name, int in, int out
 }
 
 torch::Tensor ConditionalUnet1DImpl::condition(const torch::Tensor& t, const torch::Tensor& global_cond) {
-  const torch::Tensor emb = step_fc2(torch::mish(step_fc1(sinusoidal_embedding(t, config_.step_embed_dim))));
+  const torch::Tensor emb = step_fc2(nn::mish(step_fc1(sinusoidal_embedding(t, config_.step_embed_dim))));
   return torch::cat({emb, global_cond}, 1);
 }
 

@@ -1,0 +1,86 @@
+// Where a training step's time goes: runs warm-up steps, then profiles a few with libtorch's
+// profiler and prints the self CPU time per operator (forward and backward), largest first.
+//   build/tests/bench/profile_train [down_dims=32,64,128] [T_p=32] [batch=128] [steps=20]
+#include <torch/csrc/autograd/profiler_legacy.h>
+#include <torch/torch.h>
+
+#include <cstdio>
+#include <map>
+#include <sstream>
+#include <string>
+
+#include "core/chunks.h"
+#include "core/policy.h"
+#include "core/runtime.h"
+#include "core/synthetic.h"
+#include "core/trainer.h"
+
+int main(int argc, char** argv) {
+  using namespace dd;
+  std::vector<int> dims{32, 64, 128};
+  if (argc > 1) {
+    dims.clear();
+    std::stringstream ss(argv[1]);
+    for (std::string d; std::getline(ss, d, ',');) dims.push_back(std::stoi(d));
+  }
+  const int horizon = argc > 2 ? std::stoi(argv[2]) : 32, batch = argc > 3 ? std::stoi(argv[3]) : 128;
+  const int steps = argc > 4 ? std::stoi(argv[4]) : 20;
+  const int threads = set_num_threads();
+  PolicyConfig c;
+  c.obs_dim = 24;
+  c.action_dim = 7;
+  c.horizon = horizon;
+  c.unet.down_dims = dims;
+  DiffusionPolicy policy(c, 0, false);
+  const ChunkDataset data = ChunkDataset::from_episodes(bimodal_episodes(40, 80, 24, 7, 1), horizon);
+  TrainConfig t;
+  t.batch_size = batch;
+  t.steps = 1000000;
+  Trainer trainer(policy, data, t);
+  for (int i = 0; i < 5; ++i) trainer.step();
+  std::stringstream trace;
+  {
+    torch::autograd::profiler::RecordProfile profile(trace);
+    for (int i = 0; i < steps; ++i) trainer.step();
+  }
+  // Chrome trace events: {"name": ..., "ph": "X", "ts": ..., "dur": ...}; self time = duration minus
+  // the durations of the events nested directly inside it (same thread).
+  struct Event {
+    std::string name;
+    double ts, dur;
+    int tid;
+  };
+  std::vector<Event> events;
+  const std::string s = trace.str();
+  for (size_t p = s.find("\"name\""); p != std::string::npos; p = s.find("\"name\"", p + 1)) {
+    const size_t q = s.find('"', s.find(':', p) + 1), r = s.find('"', q + 1);
+    Event e{s.substr(q + 1, r - q - 1), 0, 0, 0};
+    auto number = [&](const char* key) {
+      const size_t k = s.find(key, r);
+      return k == std::string::npos ? 0.0 : std::stod(s.substr(s.find(':', k) + 1));
+    };
+    e.ts = number("\"ts\"");
+    e.dur = number("\"dur\"");
+    e.tid = static_cast<int>(number("\"tid\""));
+    events.push_back(e);
+  }
+  std::sort(events.begin(), events.end(), [](const Event& a, const Event& b) { return a.ts < b.ts || (a.ts == b.ts && a.dur > b.dur); });
+  std::map<std::string, double> self;
+  double total = 0;
+  std::vector<const Event*> stack;
+  for (const Event& e : events) {
+    while (!stack.empty() && (stack.back()->tid != e.tid || stack.back()->ts + stack.back()->dur <= e.ts)) stack.pop_back();
+    self[e.name] += e.dur;
+    if (!stack.empty()) self[stack.back()->name] -= e.dur;
+    else total += e.dur;
+    stack.push_back(&e);
+  }
+  std::vector<std::pair<double, std::string>> rows;
+  for (const auto& [name, us] : self) rows.emplace_back(us, name);
+  std::sort(rows.rbegin(), rows.rend());
+  std::printf("down_dims %s T_p %d batch %d, %d threads: %.1f ms per step (profiled)\n", argc > 1 ? argv[1] : "32,64,128", horizon,
+              batch, threads, total / 1000.0 / steps);
+  for (size_t i = 0; i < rows.size() && i < 25; ++i)
+    std::printf("%6.1f%%  %8.2f ms/step  %s\n", 100 * rows[i].first / total, rows[i].first / 1000.0 / steps, rows[i].second.c_str());
+  return 0;
+}
