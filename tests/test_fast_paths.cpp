@@ -78,6 +78,27 @@ TEST(FastPaths, FusedMishMatchesTorchsForwardAndGradient) {
   EXPECT_TRUE(torch::allclose(nn::mish(base), yb.detach(), 1e-5, 1e-6));
 }
 
+TEST(FastPaths, UpsamplingAsAConvolutionMatchesTheTransposedConvolution) {
+  torch::manual_seed(5);
+  torch::nn::ConvTranspose1d up(torch::nn::ConvTranspose1dOptions(12, 9, 4).stride(2).padding(1));
+  for (int64_t T : {1, 2, 5, 8}) {
+    const torch::Tensor a = torch::randn({3, 12, T}).requires_grad_(true), b = a.detach().clone().requires_grad_(true);
+    const torch::Tensor ya = nn::upsample(*up, a), yb = up->forward(b);
+    ASSERT_EQ(ya.sizes(), yb.sizes());
+    EXPECT_TRUE(torch::allclose(ya, yb, 1e-5, 1e-5)) << "T " << T << " max diff " << (ya - yb).abs().max().item<float>();
+    // and the gradients, for the input and the weights
+    const torch::Tensor g = torch::randn(ya.sizes());
+    up->zero_grad();
+    ya.backward(g);
+    const torch::Tensor wa = up->weight.grad().clone(), ba = up->bias.grad().clone();
+    up->zero_grad();
+    yb.backward(g);
+    EXPECT_TRUE(torch::allclose(a.grad(), b.grad(), 1e-4, 1e-5));
+    EXPECT_TRUE(torch::allclose(wa, up->weight.grad(), 1e-4, 1e-4));
+    EXPECT_TRUE(torch::allclose(ba, up->bias.grad(), 1e-4, 1e-4));
+  }
+}
+
 TEST(FastPaths, ScalarSchedulerStepMatchesTheTensorFormulas) {
   torch::manual_seed(3);
   for (PredictionType p : {PredictionType::kVelocity, PredictionType::kEpsilon, PredictionType::kSample}) {

@@ -14,6 +14,24 @@ torch::Tensor sinusoidal_embedding(const torch::Tensor& t, int dim) {
   return torch::cat({args.sin(), args.cos()}, 1);
 }
 
+torch::Tensor upsample(torch::nn::ConvTranspose1dImpl& up, const torch::Tensor& x) {
+  const auto& o = up.options;
+  if ((*o.kernel_size())[0] != 4 || (*o.stride())[0] != 2 || (*c10::get<torch::ExpandingArray<1>>(o.padding()))[0] != 1 ||
+      (*o.output_padding())[0] != 0 || o.groups() != 1)
+    return up.forward(x);
+  // ConvTranspose1d(k 4, s 2, p 1) as one Conv1d(k 3, p 1) with both output phases as channels:
+  // even outputs 2m take taps 3 and 1 of x[m - 1] and x[m], odd outputs 2m + 1 taps 2 and 0 of x[m]
+  // and x[m + 1]. libtorch runs transposed convolutions sample by sample on this CPU; this runs on
+  // oneDNN like the other convolutions (tests/test_fast_paths.cpp checks the two agree).
+  const torch::Tensor w = up.weight.permute({1, 0, 2});  // (out, in, 4)
+  const torch::Tensor zero = torch::zeros_like(w.select(2, 0));
+  const torch::Tensor even = torch::stack({w.select(2, 3), w.select(2, 1), zero}, 2);
+  const torch::Tensor odd = torch::stack({zero, w.select(2, 2), w.select(2, 0)}, 2);
+  const torch::Tensor y = torch::conv1d(x, torch::cat({even, odd}, 0), torch::cat({up.bias, up.bias}), 1, 1);
+  const int64_t B = x.size(0), C = w.size(0), T = x.size(2);
+  return y.view({B, 2, C, T}).permute({0, 2, 3, 1}).reshape({B, C, 2 * T});
+}
+
 Conv1dBlockImpl::Conv1dBlockImpl(int in, int out, int kernel, int groups) {
   conv = register_module("conv", torch::nn::Conv1d(torch::nn::Conv1dOptions(in, out, kernel).padding(kernel / 2)));
   norm = register_module("norm", torch::nn::GroupNorm(torch::nn::GroupNormOptions(groups, out)));
@@ -112,7 +130,7 @@ torch::Tensor ConditionalUnet1DImpl::denoise(const torch::Tensor& x, const std::
     skips.pop_back();
     h = l.first(h, films[k++]);
     h = l.second(h, films[k++]);
-    h = l.up(h);
+    h = upsample(*l.up, h);
   }
   h = final_conv_(final_block_(h));
   return h.transpose(1, 2);

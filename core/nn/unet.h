@@ -75,6 +75,10 @@ class ConditionalUnet1DImpl : public torch::nn::Module {
 };
 TORCH_MODULE(ConditionalUnet1D);
 
+/// A ConvTranspose1d's output computed as an ordinary convolution where its options allow (kernel 4,
+/// stride 2, padding 1: the U-Net's upsampling), else its own forward.
+torch::Tensor upsample(torch::nn::ConvTranspose1dImpl& up, const torch::Tensor& x);
+
 /// Sinusoidal embedding of diffusion timesteps: (B) -> (B, dim).
 torch::Tensor sinusoidal_embedding(const torch::Tensor& t, int dim);
 

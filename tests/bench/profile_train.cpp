@@ -66,6 +66,7 @@ int main(int argc, char** argv) {
   }
   std::sort(events.begin(), events.end(), [](const Event& a, const Event& b) { return a.ts < b.ts || (a.ts == b.ts && a.dur > b.dur); });
   std::map<std::string, double> self;
+  std::map<std::string, std::map<std::string, int>> callers;  // operator -> its direct callers, counted
   double total = 0;
   std::vector<const Event*> stack;
   for (const Event& e : events) {
@@ -73,6 +74,7 @@ int main(int argc, char** argv) {
     self[e.name] += e.dur;
     if (!stack.empty()) self[stack.back()->name] -= e.dur;
     else total += e.dur;
+    ++callers[e.name][stack.empty() ? "(top level)" : stack.back()->name];
     stack.push_back(&e);
   }
   std::vector<std::pair<double, std::string>> rows;
@@ -80,7 +82,11 @@ int main(int argc, char** argv) {
   std::sort(rows.rbegin(), rows.rend());
   std::printf("down_dims %s T_p %d batch %d, %d threads: %.1f ms per step (profiled)\n", argc > 1 ? argv[1] : "32,64,128", horizon,
               batch, threads, total / 1000.0 / steps);
-  for (size_t i = 0; i < rows.size() && i < 25; ++i)
-    std::printf("%6.1f%%  %8.2f ms/step  %s\n", 100 * rows[i].first / total, rows[i].first / 1000.0 / steps, rows[i].second.c_str());
+  for (size_t i = 0; i < rows.size() && i < 25; ++i) {
+    std::string from;
+    for (const auto& [caller, n] : callers[rows[i].second]) from += (from.empty() ? "" : ", ") + caller + " x" + std::to_string(n / steps);
+    std::printf("%6.1f%%  %8.2f ms/step  %s  <- %s\n", 100 * rows[i].first / total, rows[i].first / 1000.0 / steps,
+                rows[i].second.c_str(), from.c_str());
+  }
   return 0;
 }
