@@ -1,5 +1,7 @@
 #include "envs/mujoco/pick_place_expert.h"
 
+#include <random>
+
 #include <cmath>
 
 #include "core/config.h"
@@ -35,6 +37,28 @@ void PickPlaceExpert::reset(uint64_t seed) {
   have_target_ = have_yaw_ = false;
   path_.clear();
   path_goal_ = {1e9, 0, 0};
+  pre_detoured_ = hover_detoured_ = detour <= 0;
+  if (detour > 0) {
+    std::mt19937_64 rng(seed * 0x9E3779B97F4A7C15ull + 101);
+    std::uniform_real_distribution<double> angle(-M_PI, M_PI), radius(0.5 * detour, detour);
+    for (Eigen::Vector2d* v : {&pre_detour_, &hover_detour_}) {
+      const double a = angle(rng), r = radius(rng);
+      *v = {r * std::cos(a), r * std::sin(a)};
+    }
+  }
+}
+
+Eigen::Vector3d PickPlaceExpert::via_detour(const Eigen::Vector3d& tcp, const Eigen::Vector3d& goal, const Eigen::Vector2d& offset,
+                                            bool& done) {
+  if (done) return goal;
+  const Eigen::Vector3d via = goal + Eigen::Vector3d(offset.x(), offset.y(), 0);
+  // reached it, or taking over close to the goal already: no detour
+  if ((tcp - via).norm() < 0.006 || (tcp - goal).norm() < 0.5 * detour) {
+    done = true;
+    path_goal_ = {1e9, 0, 0};  // plan afresh to the goal, however close it is to the detour point
+    return goal;
+  }
+  return via;
 }
 
 Vec PickPlaceExpert::command(const Eigen::Vector3d& p, const Eigen::Matrix3d& R, double grip) {
@@ -121,8 +145,9 @@ Vec PickPlaceExpert::act(const Env& base) {
       return command(target_, R, 1.0);
     }
     if (!lowering_) {
-      const double step = (tcp - above).norm() < 0.03 ? slow * 0.4 : speed;
-      return command(follow(*env, s, above, step, true), R, 1.0);
+      const Eigen::Vector3d goal = via_detour(tcp, above, hover_detour_, hover_detoured_);
+      const double step = (tcp - goal).norm() < 0.03 ? slow * 0.4 : speed;
+      return command(follow(*env, s, goal, step, true), R, 1.0);
     }
     // lower straight down, re-centring on the object's own position at every step
     if (!have_target_) target_ = tcp;
@@ -152,7 +177,7 @@ Vec PickPlaceExpert::act(const Env& base) {
   const double xy = (tcp.head<2>() - grasp.head<2>()).norm();
   const double yaw_err = std::abs(std::remainder(tool - yaw_, 2 * M_PI));
   if ((xy > 0.006 || yaw_err > 0.08) && !(xy < 0.012 && tcp.z() < pre.z() - 0.01 && yaw_err < 0.12))
-    return command(follow(*env, s, pre, speed, false), R, 0.0);
+    return command(follow(*env, s, via_detour(tcp, pre, pre_detour_, pre_detoured_), speed, false), R, 0.0);
   if (tcp.z() - grasp.z() > 0.004) return command(follow(*env, s, grasp, slow, false), R, 0.0);
   closing_ = 1;
   return command(target_, R, 1.0);

@@ -43,6 +43,11 @@ class PickPlaceExpert : public Expert {
 
   double speed = 0.025;  // max TCP travel per step in transit [m]
   double slow = 0.012;   // near the objects [m]
+  /// Per-episode detours [m]: with detour > 0 the expert first goes to a point 0.5-1 x detour beside
+  /// the pre-grasp point and beside the point over the target (a seeded random direction each), then
+  /// corrects to the exact point. Demonstrations then show the corrections a learned policy needs
+  /// when it arrives a little off; a straight expert never leaves the one line to each point.
+  double detour = 0;
 
  protected:
   virtual PickPlaceState read(const ArmEnv& env) const = 0;
@@ -60,6 +65,10 @@ class PickPlaceExpert : public Expert {
   size_t path_i_ = 0;
   double yaw_ = 0;
   bool have_yaw_ = false;
+  Eigen::Vector2d pre_detour_{0, 0}, hover_detour_{0, 0};  // this episode's offsets
+  bool pre_detoured_ = true, hover_detoured_ = true;       // done (or not wanted)
+  /// `goal`, or the detour point beside it until the TCP has been there (or started close to it).
+  Eigen::Vector3d via_detour(const Eigen::Vector3d& tcp, const Eigen::Vector3d& goal, const Eigen::Vector2d& offset, bool& done);
 };
 
 }  // namespace dd::mj
