@@ -110,7 +110,6 @@ torch::Tensor DiffusionPolicy::Impl::sample(const torch::Tensor& obs, torch::Gen
   // The loop on raw floats: the denoising pass on FastDenoiser, the scheduler's scalar step, and the
   // same generator draws in the same order as the tensor path.
   const nn::FastDenoiser fast(*ema);
-  const int64_t per_block = std::max<int64_t>(1, nn::FastDenoiser::kColumnsPerBlock / config.horizon);
   const size_t chunk = static_cast<size_t>(config.horizon) * config.action_dim;
   std::vector<torch::Tensor> fc;
   for (const auto& f : films) fc.push_back(f.contiguous());
@@ -119,12 +118,8 @@ torch::Tensor DiffusionPolicy::Impl::sample(const torch::Tensor& obs, torch::Gen
   float* xs = x.data_ptr<float>();
   for (int64_t i = 0; i < n; ++i) {
     const int64_t t = ts[static_cast<size_t>(i)];
-    for (int64_t b0 = 0; b0 < B; b0 += per_block) {
-      const int64_t m = std::min(per_block, B - b0);
-      for (size_t k = 0; k < fc.size(); ++k)
-        rows[k] = {fc[k].data_ptr<float>() + (i * B + b0) * fc[k].size(1), fc[k].size(1)};
-      fast.denoise(xs + b0 * chunk, static_cast<int>(m), config.horizon, rows, out.data() + b0 * chunk);
-    }
+    for (size_t k = 0; k < fc.size(); ++k) rows[k] = {fc[k].data_ptr<float>() + i * B * fc[k].size(1), fc[k].size(1)};
+    fast.denoise(xs, static_cast<int>(B), config.horizon, rows, out.data());
     const torch::Tensor noise = scheduler.step_draws_noise(t) ? torch::randn(x.sizes(), gen, x.options()) : torch::Tensor();
     scheduler.step(out.data(), t, xs, out.size(), noise.defined() ? noise.data_ptr<float>() : nullptr);
   }

@@ -1,5 +1,7 @@
 #include "core/nn/fast_unet.h"
 
+#include "core/nn/mish.h"
+
 #include <Eigen/Core>
 
 #include <algorithm>
@@ -117,8 +119,7 @@ FastDenoiser::Act FastDenoiser::conv_transpose(const Act& x, const Conv& c) {
   return y;
 }
 
-// GroupNorm (biased variance over each batch row's group of channels and steps), then Mish, in
-// place. Mish(x) = x tanh(softplus(x)) = x q / (q + 2) with q = e^x (e^x + 2).
+// GroupNorm (biased variance over each batch row's group of channels and steps), then Mish, in place.
 void FastDenoiser::norm_mish(Act& h, const Norm& n) {
   const int per = h.c / n.groups;
   const size_t row = static_cast<size_t>(h.b) * h.t;  // one channel's values
@@ -139,10 +140,7 @@ void FastDenoiser::norm_mish(Act& h, const Norm& n) {
         a = a * s + b;
       }
     }
-  Eigen::Map<Eigen::ArrayXf> a(h.v.data(), static_cast<Eigen::Index>(h.v.size()));
-  const Eigen::ArrayXf e = a.min(20.f).exp();
-  const Eigen::ArrayXf q = e * (e + 2.f);
-  a = a * q / (q + 2.f);
+  mish_inplace(h.v.data(), static_cast<int64_t>(h.v.size()));
 }
 
 FastDenoiser::Act FastDenoiser::res(const Act& x, const Res& r, const Film& film) {
@@ -166,6 +164,17 @@ FastDenoiser::Act FastDenoiser::res(const Act& x, const Res& r, const Film& film
 }
 
 void FastDenoiser::denoise(const float* x, int batch, int horizon, const std::vector<Film>& films, float* out) const {
+  // Blocks of rows small enough that a block's im2col buffers stay in cache.
+  const int per_block = std::max(1, static_cast<int>(kColumnsPerBlock / horizon));
+  const size_t chunk = static_cast<size_t>(horizon) * action_dim_;
+  std::vector<Film> rows(films.size());
+  for (int b0 = 0; b0 < batch; b0 += per_block) {
+    for (size_t k = 0; k < films.size(); ++k) rows[k] = {films[k].data + b0 * films[k].stride, films[k].stride};
+    denoise_block(x + b0 * chunk, std::min(per_block, batch - b0), horizon, rows, out + b0 * chunk);
+  }
+}
+
+void FastDenoiser::denoise_block(const float* x, int batch, int horizon, const std::vector<Film>& films, float* out) const {
   const int A = action_dim_;
   Act h{A, batch, horizon, std::vector<float>(static_cast<size_t>(A) * batch * horizon)};
   for (int b = 0; b < batch; ++b)  // (B, T_p, A) row-major in, channel-major (A, B T_p) inside
@@ -200,20 +209,14 @@ void FastDenoiser::denoise(const float* x, int batch, int horizon, const std::ve
 
 torch::Tensor FastDenoiser::denoise(const torch::Tensor& x, const std::vector<torch::Tensor>& films) const {
   const torch::Tensor xc = x.contiguous();
-  const int64_t B = xc.size(0), T = xc.size(1);
   torch::Tensor out = torch::empty_like(xc);
   std::vector<torch::Tensor> fc;
-  fc.reserve(films.size());
-  for (const auto& f : films) fc.push_back(f.contiguous());
-  // Blocks of rows small enough that a block's im2col buffers stay in cache.
-  const int64_t per_block = std::max<int64_t>(1, kColumnsPerBlock / T);
-  std::vector<Film> rows(films.size());
-  for (int64_t b0 = 0; b0 < B; b0 += per_block) {
-    const int64_t n = std::min(per_block, B - b0);
-    for (size_t k = 0; k < fc.size(); ++k) rows[k] = {fc[k].data_ptr<float>() + b0 * fc[k].size(1), fc[k].size(1)};
-    denoise(xc.data_ptr<float>() + b0 * xc.stride(0), static_cast<int>(n), static_cast<int>(T), rows,
-            out.data_ptr<float>() + b0 * out.stride(0));
+  std::vector<Film> rows;
+  for (const auto& f : films) {
+    fc.push_back(f.contiguous());
+    rows.push_back({fc.back().data_ptr<float>(), fc.back().size(1)});
   }
+  denoise(xc.data_ptr<float>(), static_cast<int>(xc.size(0)), static_cast<int>(xc.size(1)), rows, out.data_ptr<float>());
   return out;
 }
 

@@ -27,10 +27,10 @@ class FastDenoiser {
     int64_t stride = 0;
   };
   /// x is (batch, T_p, A) row-major; films[k] holds the k-th residual block's FiLM rows (in
-  /// ConditionalUnet1DImpl::film's order); writes (batch, T_p, A) to out.
+  /// ConditionalUnet1DImpl::film's order); writes (batch, T_p, A) to out. Runs in blocks of rows.
   void denoise(const float* x, int batch, int horizon, const std::vector<Film>& films, float* out) const;
 
-  /// A whole batch: x (B, T_p, A) and films[k] (B, 2 C_k), float32; run in blocks of rows.
+  /// The same on tensors: x (B, T_p, A) and films[k] (B, 2 C_k), float32.
   torch::Tensor denoise(const torch::Tensor& x, const std::vector<torch::Tensor>& films) const;
 
   static constexpr int64_t kColumnsPerBlock = 1024;  // batch rows x T_p per block
@@ -80,6 +80,8 @@ class FastDenoiser {
     return h;
   }
   static Act res(const Act& x, const Res& r, const Film& film);
+  /// One block of rows through the network.
+  void denoise_block(const float* x, int batch, int horizon, const std::vector<Film>& films, float* out) const;
 
   std::vector<Level> down_, up_;
   Res mid0_, mid1_;

@@ -17,16 +17,9 @@ constexpr int64_t kGrain = 1 << 14;
 std::atomic<bool> fused{true};
 
 torch::Tensor forward_kernel(const torch::Tensor& input) {
-  const torch::Tensor x = input.contiguous();
-  torch::Tensor y = torch::empty_like(x);
-  const float* xp = x.data_ptr<float>();
+  torch::Tensor y = input.contiguous().clone();
   float* yp = y.data_ptr<float>();
-  at::parallel_for(0, x.numel(), kGrain, [&](int64_t begin, int64_t end) {
-    const ConstArray a(xp + begin, end - begin);
-    const Eigen::ArrayXf n = a.min(20.f).exp();
-    const Eigen::ArrayXf q = n * (n + 2.f);
-    Array(yp + begin, end - begin) = a * q / (q + 2.f);
-  });
+  at::parallel_for(0, y.numel(), kGrain, [&](int64_t begin, int64_t end) { mish_inplace(yp + begin, end - begin); });
   return y;
 }
 
@@ -57,6 +50,13 @@ struct MishFunction : torch::autograd::Function<MishFunction> {
 };
 
 }  // namespace
+
+void mish_inplace(float* x, int64_t n) {
+  Array a(x, n);
+  const Eigen::ArrayXf e = a.min(20.f).exp();
+  const Eigen::ArrayXf q = e * (e + 2.f);
+  a = a * q / (q + 2.f);
+}
 
 void set_fused_mish(bool on) { fused = on; }
 

@@ -10,6 +10,9 @@ namespace dd::nn {
 /// Mish of a float32 tensor, differentiable (a custom autograd function that saves its input).
 torch::Tensor mish(const torch::Tensor& x);
 
+/// Mish of n floats in place, without autograd (the kernel mish() runs forward).
+void mish_inplace(float* x, int64_t n);
+
 /// Whether mish() uses the fused kernels (the default) or torch::mish: the benchmarks time both.
 void set_fused_mish(bool on);
 

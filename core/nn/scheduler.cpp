@@ -97,35 +97,17 @@ std::vector<int64_t> NoiseScheduler::inference_timesteps() const {
 
 torch::Tensor NoiseScheduler::step(const torch::Tensor& output, int64_t t, const torch::Tensor& x_t,
                                    torch::Generator& gen) const {
-  const int64_t prev = t - config_.num_train_timesteps / config_.num_inference_steps;
-  const double ab_t = abar(t), ab_prev = abar(prev);
-  const double a = std::sqrt(ab_t), s = std::sqrt(1.0 - ab_t);
-  // x0 from the network output with scalar coefficients: one timestep for the whole batch.
-  torch::Tensor x0;
-  switch (config_.prediction) {
-    case PredictionType::kEpsilon: x0 = (x_t - s * output) / a; break;
-    case PredictionType::kSample: x0 = output; break;
-    case PredictionType::kVelocity: x0 = a * x_t - s * output; break;
-  }
-  if (config_.clip_sample) x0 = x0.clamp(-1.0, 1.0);
-
-  if (config_.sampler == SamplerType::kDdim) {
-    // Deterministic DDIM (eta = 0); eps is re-derived from the clipped x0.
-    const torch::Tensor eps = (x_t - a * x0) / s;
-    return std::sqrt(ab_prev) * x0 + std::sqrt(1.0 - ab_prev) * eps;
-  }
-  // DDPM posterior q(x_prev | x_t, x0) with the "fixed small" variance.
-  const double alpha_t = ab_t / ab_prev, beta_t = 1.0 - alpha_t;
-  const double c_x0 = std::sqrt(ab_prev) * beta_t / (1.0 - ab_t);
-  const double c_xt = std::sqrt(alpha_t) * (1.0 - ab_prev) / (1.0 - ab_t);
-  torch::Tensor mean = torch::add(x0 * c_x0, x_t, c_xt);
-  if (t > 0) {
-    const double var = std::max((1.0 - ab_prev) / (1.0 - ab_t) * beta_t, 1e-20);
-    mean.add_(torch::randn(x_t.sizes(), gen, x_t.options()), std::sqrt(var));
-  }
-  return mean;
+  // The scalar step on a float copy; DDPM's draw has x_t's shape, as the posterior's noise.
+  const torch::Tensor out = output.to(torch::kFloat32).contiguous();
+  torch::Tensor x = x_t.to(torch::kFloat32).contiguous().clone();
+  const torch::Tensor noise = step_draws_noise(t) ? torch::randn(x.sizes(), gen, x.options()) : torch::Tensor();
+  step(out.data_ptr<float>(), t, x.data_ptr<float>(), static_cast<size_t>(x.numel()), noise.defined() ? noise.data_ptr<float>() : nullptr);
+  return x;
 }
 
+// x0 from the network output with scalar coefficients (one timestep for the whole batch), clipped;
+// then DDIM (eta = 0, eps re-derived from the clipped x0) or the DDPM posterior q(x_prev | x_t, x0)
+// with the "fixed small" variance.
 void NoiseScheduler::step(const float* output, int64_t t, float* x, size_t n, const float* noise) const {
   const int64_t prev = t - config_.num_train_timesteps / config_.num_inference_steps;
   const double ab_t = abar(t), ab_prev = abar(prev);
