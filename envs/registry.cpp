@@ -11,6 +11,11 @@
 #include "envs/mujoco/push_expert.h"
 
 namespace dd {
+namespace {
+// "detour" experts: the planner, first going to a seeded point 1-2 cm beside its pre-grasp and hover
+// points, so that the demonstrations show corrections onto them (PickPlaceExpert::detour).
+constexpr double kExpertDetour = 0.02;
+}  // namespace
 
 std::vector<std::string> task_names() { return {"nav2d", "nav2d_random", "stack", "push", "plug"}; }
 
@@ -31,8 +36,11 @@ std::unique_ptr<Expert> make_expert(const std::string& task, const std::string& 
     throw Error("nav2d expert: unknown mode '" + mode + "' (known: cw, ccw, mixed)");
   }
   if (task == "stack") {
-    if (mode != "mixed" && mode != "planner") throw Error("stack expert: unknown mode '" + mode + "' (known: planner)");
-    return std::make_unique<mj::StackExpert>();
+    if (mode != "mixed" && mode != "planner" && mode != "detour")
+      throw Error("stack expert: unknown mode '" + mode + "' (known: planner, detour)");
+    auto expert = std::make_unique<mj::StackExpert>();
+    if (mode == "detour") expert->detour = kExpertDetour;
+    return expert;
   }
   if (task == "push") {
     if (mode == "cw") return std::make_unique<mj::PushExpert>(mj::PushExpert::Mode::kClockwise);
@@ -42,8 +50,11 @@ std::unique_ptr<Expert> make_expert(const std::string& task, const std::string& 
     throw Error("push expert: unknown mode '" + mode + "' (known: cw, ccw, mixed, alternate)");
   }
   if (task == "plug") {
-    if (mode != "mixed" && mode != "planner") throw Error("plug expert: unknown mode '" + mode + "' (known: planner)");
-    return std::make_unique<mj::PlugExpert>();
+    if (mode != "mixed" && mode != "planner" && mode != "detour")
+      throw Error("plug expert: unknown mode '" + mode + "' (known: planner, detour)");
+    auto expert = std::make_unique<mj::PlugExpert>();
+    if (mode == "detour") expert->detour = kExpertDetour;
+    return expert;
   }
   throw Error("unknown task '" + task + "' for an expert");
 }

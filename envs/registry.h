@@ -15,7 +15,8 @@ std::vector<std::string> task_names();
 /// A new environment for `task`; throws Error naming the task when unknown.
 std::unique_ptr<Env> make_env(const std::string& task);
 /// The scripted expert for `task`; `mode` picks a variant where the task has several
-/// (nav2d: cw, ccw, mixed). Throws Error naming the task or mode when unknown.
+/// (nav2d: cw, ccw, mixed; push: cw, ccw, mixed, alternate; stack and plug: planner, detour).
+/// Throws Error naming the task or mode when unknown.
 std::unique_ptr<Expert> make_expert(const std::string& task, const std::string& mode = "mixed");
 /// A JSON description of the task (robomimic's env_args).
 std::string env_args(const std::string& task);

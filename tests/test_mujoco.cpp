@@ -219,17 +219,16 @@ TEST(Mujoco, PlugExpertInsertsOverSeededEpisodes) {
 
 TEST(Mujoco, PlugExpertsDetoursLeaveTheStraightLineAndStillInsert) {
   PlugEnv env;
-  PlugExpert detouring, straight;
-  detouring.detour = 0.02;
+  const auto detouring = make_expert("plug", "detour"), straight = make_expert("plug", "planner");
   for (uint64_t seed : {300, 301}) {
-    const RecordedEpisode a = expert_episode(env, detouring, seed), b = expert_episode(env, straight, seed);
+    const RecordedEpisode a = expert_episode(env, *detouring, seed), b = expert_episode(env, *straight, seed);
     EXPECT_TRUE(a.success) << seed;
     EXPECT_TRUE(b.success) << seed;
     // the commanded TCP positions (actions 0-2) part by about the detour somewhere on the way
     double apart = 0;
     for (Eigen::Index t = 0; t < std::min(a.steps(), b.steps()); ++t)
       apart = std::max(apart, double((a.actions.row(t).head(2) - b.actions.row(t).head(2)).norm()));
-    EXPECT_GT(apart, 0.5 * detouring.detour) << seed;
+    EXPECT_GT(apart, 0.01) << seed;  // the "detour" mode goes 1-2 cm beside the straight line
   }
 }
 
