@@ -30,6 +30,9 @@ Command add_train(CLI::App& app) {
   cmd->add_option("--curve-eval", o->train.curve_episodes, "rollouts at the --eval-every points (default: --eval's)")->check(CLI::NonNegativeNumber);
   cmd->add_option("--init", o->train.init, "checkpoint to start from (with --steps 0: only roll it out)");
   cmd->add_option("--eval-seed", o->train.eval_seed, "seed of the first rollout")->capture_default_str();
+  cmd->add_option("--threshold", o->train.threshold,
+                  "also set Diff-DAgger's threshold over the training pairs: screened (as eval does) or both (and every pair at all rows, for comparison)")
+      ->check(CLI::IsMember({"screened", "both"}));
   cmd->add_option("--seed", o->seed, "seed of the network, the minibatches and the collected demonstrations")->capture_default_str();
   return [o] {
     ExperimentConfig c = o->config.empty() ? preset(o->task == "push" ? "push_2experts" : o->task) : resolve_config("", o->config);

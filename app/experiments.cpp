@@ -254,11 +254,29 @@ TrainRunResult run_train(const ExperimentConfig& config, const TrainOptions& o) 
   for (size_t i = 0; i < losses.size(); ++i) loss_csv += fmt::format("{},{:.6g}\n", i + 1, losses[i]);
   write_text(o.out + "/losses.csv", loss_csv);
   if (o.eval_episodes > 0) evaluate(steps, o.eval_episodes);
+  if (!o.threshold.empty()) {
+    if (o.threshold != "screened" && o.threshold != "both") throw Error("train: --threshold is screened or both, got '" + o.threshold + "'");
+    policy.set_score_weights(config.method.score_raw_weights ? ScoreWeights::kRaw : ScoreWeights::kEma);
+    auto set = [&](bool screen) {
+      ProgressBar bar(screen ? "threshold, screened" : "threshold, every pair at all rows", "loss");
+      const auto t = std::chrono::steady_clock::now();
+      const LossQuantile q = policy.loss_quantile(data, config.method.alpha, config.dagger.seed * 31 + 1, config.method.loss_samples,
+                                                  screen, o.quiet ? ProgressFn{} : bar.fn());
+      const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count();
+      if (!o.quiet) fmt::print(stderr, "threshold {:.5f} in {:.1f} s ({} of {} pairs at {} rows)\n", q.threshold, s, q.refined, q.pairs,
+                               config.method.loss_samples);
+      return nlohmann::json{{"threshold", q.threshold}, {"seconds", s}, {"refined", q.refined}, {"screen_samples", q.screen_samples}};
+    };
+    result.threshold["screened"] = set(true);
+    if (o.threshold == "both") result.threshold["all_rows"] = set(false);
+    result.threshold["alpha"] = config.method.alpha;
+    result.threshold["loss_samples"] = config.method.loss_samples;
+  }
   const nlohmann::json summary{{"task", config.task}, {"preset", config.preset}, {"expert", config.expert}, {"demos", result.demos},
                                {"pairs", result.pairs}, {"steps", steps}, {"obs_dim", config.policy.obs_dim}, {"batch_size", config.train.batch_size},
                                {"train_s", result.train_s}, {"eval_s", result.eval_s}, {"final_loss", result.final_loss},
                                {"episodes", o.eval_episodes}, {"success_rate", o.eval_episodes > 0 ? result.success : -1.0},
-                               {"eval_seed", o.eval_seed}};
+                               {"eval_seed", o.eval_seed}, {"threshold", result.threshold}};
   write_text(o.out + "/summary.json", summary.dump(2) + "\n");
   return result;
 }

@@ -7,6 +7,8 @@
 #include <utility>
 #include <vector>
 
+#include <nlohmann/json.hpp>
+
 #include "core/task_config.h"
 
 namespace dd::app {
@@ -53,6 +55,9 @@ struct TrainOptions {
   std::string init;         // a checkpoint to start from (with 0 steps: only roll it out)
   uint64_t eval_seed = kTrainEvalSeed;
   bool quiet = false;
+  /// Also set Diff-DAgger's threshold over the training pairs (the preset's alpha and N_b):
+  /// "" none, "screened" (the default method), "both" (screened and every pair at all rows, timed).
+  std::string threshold;
   static constexpr uint64_t kTrainEvalSeed = 950000;  // rollouts start here: never a demonstration's seed
 };
 
@@ -62,6 +67,7 @@ struct TrainRunResult {
   double final_loss = 0;
   std::vector<std::pair<int, double>> curve;  // (training step, success rate)
   double success = NAN;                       // at the last step; NaN without rollouts
+  nlohmann::json threshold;                   // --threshold's figures (null without it)
 };
 
 /// Trains one policy with the config's network and budget (train.steps at train.batch_size) on the

@@ -8,6 +8,8 @@
 #include "core/policy.h"
 #include "core/trainer.h"
 
+#include <spdlog/spdlog.h>
+
 namespace dd {
 namespace {
 
@@ -32,7 +34,11 @@ class DiffMethod : public Method {
     r.train_s = since(t);
     t = Clock::now();
     const ChunkDataset cal = data.subset(config_.calibration_pairs, seed_ + ++updates_);
-    threshold_ = quantile(policy_.expected_losses(cal, seed_ * 31 + updates_, config_.loss_samples), config_.alpha);
+    const LossQuantile q = policy_.loss_quantile(cal, config_.alpha, seed_ * 31 + updates_, config_.loss_samples,
+                                                 config_.screen_threshold);
+    threshold_ = q.threshold;
+    spdlog::debug("diff: threshold {:.5f} over {} pairs, {} of them at {} rows (screened at {})", q.threshold, q.pairs, q.refined,
+                  config_.loss_samples, q.screen_samples);
     r.threshold_s = since(t);
     r.threshold = threshold_;
     return r;

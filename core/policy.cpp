@@ -3,8 +3,10 @@
 #include <spdlog/spdlog.h>
 
 #include <algorithm>
+#include <cmath>
 
 #include "core/chunks.h"
+#include "core/gate.h"
 #include "core/nn/policy_impl.h"
 #include "core/nn/fast_unet.h"
 
@@ -68,6 +70,11 @@ torch::Tensor DiffusionPolicy::Impl::chunk_tensor(const Mat& chunk_rows) const {
 
 torch::Tensor DiffusionPolicy::Impl::expected_loss(const torch::Tensor& obs, const torch::Tensor& chunks,
                                                    int n_samples, torch::Generator& gen) const {
+  return row_losses(obs, chunks, n_samples, gen).mean(1);
+}
+
+torch::Tensor DiffusionPolicy::Impl::row_losses(const torch::Tensor& obs, const torch::Tensor& chunks, int n_samples,
+                                                torch::Generator& gen) const {
   torch::NoGradGuard no_grad;
   const int64_t B = obs.size(0), n = n_samples, T = config.scheduler.num_train_timesteps;
   // Condition each (pair, timestep) once: B * T rows instead of B * n.
@@ -87,7 +94,7 @@ torch::Tensor DiffusionPolicy::Impl::expected_loss(const torch::Tensor& obs, con
   const torch::Tensor x_t = scheduler.add_noise(x0, eps, t_rows);
   // torch's pass: at N_b rows both paths are sgemm-bound and equally fast (bench_policy)
   const torch::Tensor pred = net->denoise(x_t, row_films);
-  return (pred - scheduler.target(x0, eps, t_rows)).pow(2).reshape({B, -1}).mean(1);
+  return (pred - scheduler.target(x0, eps, t_rows)).pow(2).reshape({B, n, -1}).mean(2);
 }
 
 torch::Tensor DiffusionPolicy::Impl::sample(const torch::Tensor& obs, torch::Generator& gen) const {
@@ -214,6 +221,73 @@ std::vector<float> DiffusionPolicy::expected_losses(const ChunkDataset& data, ui
     if (progress) progress(static_cast<int>(start + len), data.size(), out.back());
   }
   return out;
+}
+
+LossQuantile DiffusionPolicy::loss_quantile(const ChunkDataset& data, double alpha, uint64_t seed, int n_samples,
+                                            bool screen, const ProgressFn& progress) const {
+  if (data.size() == 0) throw Error("policy: no training pairs to set a threshold over");
+  const int T = config().scheduler.num_train_timesteps;
+  // Screening rows per pair: an eighth of n_samples, whole strata, at least two rows per timestep
+  // (for the within-stratum variance); worth it only when that is at most a quarter of n_samples.
+  const int m = std::max((n_samples / 8 + T - 1) / T, 2) * T;
+  LossQuantile q;
+  q.pairs = data.size();
+  if (!screen || 4 * m > n_samples) {
+    q.threshold = quantile(expected_losses(data, seed, n_samples, progress), alpha);
+    q.refined = q.pairs;
+    return q;
+  }
+  q.screen_samples = m;
+  torch::Generator gen = make_generator(seed);
+  const torch::Tensor obs = impl_->obs_tensor(data.obs);
+  const torch::Tensor chunks = impl_->chunk_tensor(data.chunks);
+  const auto n = static_cast<size_t>(data.size());
+  const int64_t k = m / T;  // rows per timestep
+  std::vector<float> screened(n), bound(n);  // screening mean, and mean + z standard errors
+  const int64_t per_pass = std::max<int64_t>(1, kRowsPerPass / m);
+  for (int64_t start = 0; start < data.size(); start += per_pass) {
+    const int64_t len = std::min<int64_t>(per_pass, data.size() - start);
+    // (len, m) -> (len, k, T): row j * T + t has timestep t
+    const torch::Tensor rows = impl_->row_losses(obs.narrow(0, start, len), chunks.narrow(0, start, len), m, gen).view({len, k, T});
+    const torch::Tensor mean = rows.mean({1, 2});
+    // stratified estimate: var(mean) = sum_t var_t / k / T^2
+    const torch::Tensor se = (rows.var(1, /*unbiased=*/true).sum(1) / (k * T * T)).sqrt();
+    const torch::Tensor hi = mean + LossQuantile::kScreenZ * se;
+    std::copy_n(mean.data_ptr<float>(), len, screened.begin() + start);
+    std::copy_n(hi.data_ptr<float>(), len, bound.begin() + start);
+    if (progress) progress(static_cast<int>(start + len), 2 * data.size(), screened[static_cast<size_t>(start + len - 1)]);
+  }
+  // Refine every pair that could lie above the threshold with the full n_samples rows; repeat while
+  // the threshold moves below a pair's screening bound. The threshold is then always a refined
+  // value, and every pair left unrefined lies below it (by kScreenZ standard errors), so the order
+  // statistic is the one all pairs at n_samples rows would give.
+  std::vector<float> value = screened;
+  std::vector<char> refined(n, 0);
+  q.threshold = quantile(value, alpha);
+  for (;;) {
+    std::vector<int64_t> todo;
+    for (size_t i = 0; i < n; ++i)
+      if (!refined[i] && bound[i] >= q.threshold) todo.push_back(static_cast<int64_t>(i));
+    if (todo.empty()) break;
+    const torch::Tensor idx = torch::tensor(todo, torch::kInt64);
+    const torch::Tensor o = obs.index_select(0, idx), c = chunks.index_select(0, idx);
+    const int64_t full_pass = std::max<int64_t>(1, kRowsPerPass / n_samples);
+    for (int64_t start = 0; start < idx.size(0); start += full_pass) {
+      const int64_t len = std::min<int64_t>(full_pass, idx.size(0) - start);
+      const torch::Tensor l = impl_->expected_loss(o.narrow(0, start, len), c.narrow(0, start, len), n_samples, gen);
+      const float* lp = l.data_ptr<float>();
+      for (int64_t j = 0; j < len; ++j) {
+        const auto i = static_cast<size_t>(todo[static_cast<size_t>(start + j)]);
+        value[i] = lp[j];
+        refined[i] = 1;
+      }
+      q.refined += static_cast<int>(len);
+      if (progress) progress(std::min(2 * data.size() - 1, data.size() + q.refined), 2 * data.size(), value[static_cast<size_t>(todo[static_cast<size_t>(start)])]);
+    }
+    q.threshold = quantile(value, alpha);
+  }
+  if (progress) progress(2 * data.size(), 2 * data.size(), q.threshold);
+  return q;
 }
 
 Decision DiffusionPolicy::decide(const Vec& obs, uint64_t seed, int n_samples) const {

@@ -36,6 +36,17 @@ struct Decision {
   float loss = 0.f;  // expected diffusion loss of (obs, chunk)
 };
 
+/// A threshold over training pairs: the alpha-quantile of their expected losses.
+struct LossQuantile {
+  float threshold = 0;
+  int pairs = 0;          // pairs it is over
+  int refined = 0;        // pairs scored with the full n_samples rows (all of them without screening)
+  int screen_samples = 0; // rows per pair of the screening pass (0: none)
+  /// A pair is left at its screening estimate only when the estimate plus this many standard
+  /// errors is below the threshold.
+  static constexpr float kScreenZ = 5;
+};
+
 class DiffusionPolicy {
  public:
   /// Builds a freshly initialised network (weights drawn from `seed`) and, when `announce`, logs its
@@ -72,6 +83,13 @@ class DiffusionPolicy {
   std::vector<float> expected_losses(const ChunkDataset& data, uint64_t seed,
                                      int n_samples = kDefaultLossSamples,
                                      const ProgressFn& progress = {}) const;
+  /// The alpha-quantile (sorted[floor(n * alpha)]) of the expected losses of every pair of `data`.
+  /// With `screen`, every pair is first scored with an eighth of the rows (whole timestep strata),
+  /// and only the pairs that could lie above the quantile are scored with all n_samples: the same
+  /// order statistic at a fraction of the cost (see LossQuantile). Progress runs over both passes.
+  LossQuantile loss_quantile(const ChunkDataset& data, double alpha, uint64_t seed,
+                             int n_samples = kDefaultLossSamples, bool screen = true,
+                             const ProgressFn& progress = {}) const;
   /// Sampling plus expected loss of the sampled chunk: what the robot does at every decision.
   Decision decide(const Vec& obs, uint64_t seed, int n_samples = kDefaultLossSamples) const;
 

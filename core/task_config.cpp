@@ -75,11 +75,14 @@ void apply_dagger(const json& j, DaggerConfig& d) {
 }
 
 void apply_method(const json& j, MethodConfig& m) {
-  require_known_keys(j, {"alpha", "members", "loss_samples", "calibration_pairs", "score_weights", "risk_quantile", "critic_steps"}, "method");
+  require_known_keys(j, {"alpha", "members", "loss_samples", "calibration_pairs", "screen_threshold", "score_weights", "risk_quantile",
+                         "critic_steps"},
+                     "method");
   read(j, "alpha", m.alpha, "method");
   read(j, "members", m.members, "method");
   read(j, "loss_samples", m.loss_samples, "method");
   read(j, "calibration_pairs", m.calibration_pairs, "method");
+  read(j, "screen_threshold", m.screen_threshold, "method");
   read(j, "risk_quantile", m.risk_quantile, "method");
   read(j, "critic_steps", m.critic.steps, "method");
   if (j.contains("score_weights")) {
@@ -92,7 +95,7 @@ void apply_method(const json& j, MethodConfig& m) {
 
 json method_json(const MethodConfig& m) {
   return json{{"alpha", m.alpha}, {"members", m.members}, {"loss_samples", m.loss_samples},
-              {"calibration_pairs", m.calibration_pairs},
+              {"calibration_pairs", m.calibration_pairs}, {"screen_threshold", m.screen_threshold},
               {"score_weights", m.score_raw_weights ? "raw" : "ema"}, {"risk_quantile", m.risk_quantile}, {"critic_steps", m.critic.steps}};
 }
 

@@ -119,6 +119,35 @@ TEST_F(BimodalPolicy, CalibratedGateFlagsOutOfDistributionChunks) {
   EXPECT_LE(queried_id, 4);
 }
 
+TEST_F(BimodalPolicy, ScreenedThresholdIsTheAllRowsOne) {
+  // A worst case for screening: 16 values per chunk make single rows' losses heavy-tailed, so many
+  // pairs stay candidates (on pushing's 224 values, 78 of 5055 pairs did; see the README).
+  constexpr int kRows = 128;
+  constexpr double kAlpha = 0.99;
+  const ChunkDataset pairs = data_->subset(320, 2);
+  std::vector<float> all_rows;
+  for (uint64_t seed = 40; seed < 44; ++seed) {
+    const LossQuantile q = policy_->loss_quantile(pairs, kAlpha, seed, kRows, /*screen=*/false);
+    EXPECT_EQ(q.refined, pairs.size());
+    EXPECT_EQ(q.screen_samples, 0);
+    all_rows.push_back(q.threshold);
+  }
+  const auto [lo, hi] = std::minmax_element(all_rows.begin(), all_rows.end());
+  // the all-rows threshold varies with the noise drawn; the screened one must fall in that spread
+  const float tol = std::max(*hi - *lo, 0.02f * *hi);
+  const int above = pairs.size() - static_cast<int>(std::floor(pairs.size() * kAlpha));
+  for (uint64_t seed = 50; seed < 54; ++seed) {
+    const LossQuantile q = policy_->loss_quantile(pairs, kAlpha, seed, kRows);
+    std::printf("screened %.5f (%d of %d refined); all rows %.5f .. %.5f\n", q.threshold, q.refined, q.pairs, *lo, *hi);
+    EXPECT_EQ(q.pairs, pairs.size());
+    EXPECT_EQ(q.screen_samples, kRows / 4) << "two rows per timestep";
+    EXPECT_GE(q.refined, above) << "every pair at or above the quantile is scored in full";
+    EXPECT_LT(q.refined, pairs.size()) << "screening left no pair out";
+    EXPECT_GE(q.threshold, *lo - tol) << seed;
+    EXPECT_LE(q.threshold, *hi + tol) << seed;
+  }
+}
+
 TEST_F(BimodalPolicy, DecisionGivesAChunkInRangeAndAFiniteLoss) {
   const Decision d = policy_->decide(data_->obs.row(0).transpose(), 2);
   EXPECT_EQ(d.chunk.rows(), 8);

@@ -32,6 +32,9 @@ struct DiffusionPolicy::Impl {
   /// Expected loss for B pairs: obs (B, obs_dim) and chunks (B, T_p, A), both normalised -> (B).
   torch::Tensor expected_loss(const torch::Tensor& obs, const torch::Tensor& chunks, int n_samples,
                               torch::Generator& gen) const;
+  /// The same rows' losses one by one: (B, n_samples), row i at timestep i mod T_d.
+  torch::Tensor row_losses(const torch::Tensor& obs, const torch::Tensor& chunks, int n_samples,
+                           torch::Generator& gen) const;
   /// Reverse diffusion from noise for normalised obs (B, obs_dim) -> normalised chunks (B, T_p, A).
   /// The conditioning of every (row, timestep) is computed in one pass before the denoising loop.
   torch::Tensor sample(const torch::Tensor& obs, torch::Generator& gen) const;

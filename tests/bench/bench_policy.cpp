@@ -5,6 +5,7 @@
 //   ...Torch      the same on torch's operators (the path before FastDenoiser, for the ratio)
 //   ExpectedLoss  one expected loss at N_b = 512
 //   Decision      sampling plus expected loss: what every control decision costs
+//   Threshold     the alpha-quantile of 400 pairs' expected losses, screened; ...AllRows: unscreened
 //   Sgemm         a large square sgemm through the same OpenBLAS: this machine's practical fp32
 //                 peak, the yardstick for the others (counter GFLOPS)
 // libtorch runs with 2 intra-op threads (or $DD_THREADS).
@@ -81,6 +82,21 @@ void Decision(benchmark::State& state, const PolicyConfig& config, bool torch_de
   for (auto _ : state) benchmark::DoNotOptimize(policy.decide(obs, seed++, kDefaultLossSamples));
 }
 
+// The threshold over 400 training pairs of a briefly trained policy, screened (1/8 of the rows
+// first) or every pair at N_b = 512; counter `refined`: pairs scored at 512 rows.
+void Threshold(benchmark::State& state, const PolicyConfig& config, bool screen) {
+  DiffusionPolicy policy(config, 0);
+  TrainConfig t;
+  t.batch_size = 128;
+  t.steps = 300;
+  train(policy, bench_data(), t);
+  const ChunkDataset pairs = bench_data().subset(400, 1);
+  uint64_t seed = 0;
+  LossQuantile q;
+  for (auto _ : state) q = policy.loss_quantile(pairs, 0.99, seed++, kDefaultLossSamples, screen);
+  state.counters["refined"] = q.refined;
+}
+
 // What the machine's BLAS reaches on a large product, as GFLOPS.
 void Sgemm(benchmark::State& state) {
   const int n = static_cast<int>(state.range(0));
@@ -111,6 +127,8 @@ BENCHMARK_CAPTURE(Sample, 32_64_128, kCpuDefault, true)->Name("BM_SampleTorch_32
 BENCHMARK_CAPTURE(ExpectedLoss, 32_64_128, kCpuDefault)->Name("BM_ExpectedLoss_32_64_128")->Unit(benchmark::kMillisecond);
 BENCHMARK_CAPTURE(Decision, 32_64_128, kCpuDefault, false)->Name("BM_Decision_32_64_128")->Unit(benchmark::kMillisecond);
 BENCHMARK_CAPTURE(Decision, 32_64_128, kCpuDefault, true)->Name("BM_DecisionTorch_32_64_128")->Unit(benchmark::kMillisecond);
+BENCHMARK_CAPTURE(Threshold, 32_64_128, kCpuDefault, true)->Name("BM_Threshold_32_64_128")->Unit(benchmark::kMillisecond)->Iterations(2);
+BENCHMARK_CAPTURE(Threshold, 32_64_128, kCpuDefault, false)->Name("BM_ThresholdAllRows_32_64_128")->Unit(benchmark::kMillisecond)->Iterations(2);
 
 }  // namespace
 }  // namespace dd
