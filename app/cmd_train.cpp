@@ -33,6 +33,10 @@ Command add_train(CLI::App& app) {
   cmd->add_option("--threshold", o->train.threshold,
                   "also set Diff-DAgger's threshold over the training pairs: screened (as eval does) or both (and every pair at all rows, for comparison)")
       ->check(CLI::IsMember({"screened", "both"}));
+  cmd->add_option("--save-every", o->train.save_every,
+                  "leave a resume point every this many steps (also after each curve point); rerunning a stopped run's command continues it")
+      ->capture_default_str()
+      ->check(CLI::NonNegativeNumber);
   cmd->add_option("--seed", o->seed, "seed of the network, the minibatches and the collected demonstrations")->capture_default_str();
   return [o] {
     ExperimentConfig c = o->config.empty() ? preset(o->task == "push" ? "push_2experts" : o->task) : resolve_config("", o->config);

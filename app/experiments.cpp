@@ -10,6 +10,7 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <sstream>
 #include <numeric>
 #include <map>
 #include <nlohmann/json.hpp>
@@ -33,6 +34,14 @@ void make_dirs(const std::string& dir) {
   std::error_code ec;
   fs::create_directories(dir, ec);
   if (ec) throw Error(dir + ": could not create the folder: " + ec.message());
+}
+
+std::string read_text(const std::string& path) {
+  std::ifstream f(path);
+  if (!f) throw Error(path + ": could not open");
+  std::ostringstream text;
+  text << f.rdbuf();
+  return text.str();
 }
 
 void write_text(const std::string& path, const std::string& text) {
@@ -206,17 +215,49 @@ TrainRunResult run_train(const ExperimentConfig& config, const TrainOptions& o) 
   }
   if (demos.empty()) throw Error("train: no successful expert episodes to train on");
   result.demos = static_cast<int>(demos.size());
-  write_text(o.out + "/config.json", to_json_text(config) + "\n");
+  // A stopped run left a resume point (out/resume): continue it when it is the same run.
+  const std::string resume_dir = o.out + "/resume", config_text = to_json_text(config) + "\n";
+  nlohmann::json resume;  // {"step", "train_s", "eval_s"} of the resume point, null for a fresh run
+  if (fs::exists(resume_dir + "/progress.json")) {
+    if (read_text(o.out + "/config.json") != config_text)
+      throw Error(o.out + "/config.json: a stopped run with another config is in this folder (its resume point is " + resume_dir +
+                  "); remove the folder or choose another --out");
+    try {
+      resume = nlohmann::json::parse(read_text(resume_dir + "/progress.json"));
+      resume.at("step").get<int>();
+    } catch (const nlohmann::json::exception& e) {
+      throw Error(resume_dir + "/progress.json: not a resume point (" + std::string(e.what()) + ")");
+    }
+  }
+  write_text(o.out + "/config.json", config_text);
 
   DiffusionPolicy policy(config.policy, config.train.seed);
-  if (!o.init.empty()) policy.load(o.init);
+  if (!resume.is_null()) policy.load(resume_dir + "/policy.pt");
+  else if (!o.init.empty()) policy.load(o.init);
   const ChunkDataset data = ChunkDataset::from_episodes(demos, config.policy.horizon);
   result.pairs = data.size();
   auto env = make_env(config.task);
   auto actor = act_with(policy);
   const DaggerConfig& d = config.dagger;
-  std::ofstream curve_csv(o.out + "/curve.csv");
-  curve_csv << "step,success_rate,episodes,demos,outcomes\n";
+  const int resume_step = resume.is_null() ? 0 : resume["step"].get<int>();
+  {  // curve.csv: a fresh file, or the rows up to the resume point
+    std::string kept = "step,success_rate,episodes,demos,outcomes\n";
+    if (resume_step > 0) {
+      std::istringstream rows(read_text(o.out + "/curve.csv"));
+      std::string line;
+      std::getline(rows, line);
+      while (std::getline(rows, line)) {
+        const int step = std::stoi(line.substr(0, line.find(',')));
+        if (step > resume_step) continue;
+        kept += line + "\n";
+        const size_t a = line.find(',') + 1;
+        result.curve.emplace_back(step, std::stod(line.substr(a, line.find(',', a) - a)));
+        result.success = result.curve.back().second;
+      }
+    }
+    write_text(o.out + "/curve.csv", kept);
+  }
+  std::ofstream curve_csv(o.out + "/curve.csv", std::ios::app);
   auto evaluate = [&](int step, int episodes) {
     const auto t = std::chrono::steady_clock::now();
     std::vector<RolloutResult> results;
@@ -233,26 +274,68 @@ TrainRunResult run_train(const ExperimentConfig& config, const TrainOptions& o) 
   };
 
   std::vector<float> losses;
+  auto write_losses = [&] {
+    std::string loss_csv = "step,loss\n";
+    for (size_t i = 0; i < losses.size(); ++i) loss_csv += fmt::format("{},{:.6g}\n", i + 1, losses[i]);
+    write_text(o.out + "/losses.csv", loss_csv);
+  };
+  if (resume_step > 0) {  // the losses up to the resume point
+    std::istringstream rows(read_text(o.out + "/losses.csv"));
+    std::string line;
+    std::getline(rows, line);
+    while (static_cast<int>(losses.size()) < resume_step && std::getline(rows, line))
+      losses.push_back(std::stof(line.substr(line.find(',') + 1)));
+    if (static_cast<int>(losses.size()) != resume_step)
+      throw Error(o.out + "/losses.csv: holds " + std::to_string(losses.size()) + " steps, the resume point is at " +
+                  std::to_string(resume_step));
+    result.train_s = resume.value("train_s", 0.0);
+    result.eval_s = resume.value("eval_s", 0.0);
+    if (!o.quiet) fmt::print(stderr, "resuming {} at step {}\n", o.out, resume_step);
+  }
   const int steps = config.train.steps_for(data.size());
   if (steps > 0) {
     Trainer trainer(policy, data, config.train);
+    if (resume_step > 0) trainer.resume(resume_dir + "/trainer.pt");
+    // a resume point: the policy, the trainer's state, the losses and the times so far
+    auto save_resume_point = [&](int step) {
+      make_dirs(resume_dir);
+      policy.save(resume_dir + "/policy.pt");
+      trainer.save_state(resume_dir + "/trainer.pt");
+      write_losses();
+      write_text(resume_dir + "/progress.json",
+                 nlohmann::json{{"step", step}, {"train_s", result.train_s}, {"eval_s", result.eval_s}}.dump() + "\n");
+    };
     ProgressBar bar(fmt::format("train {} on {} demonstrations ({} pairs)", config.task, result.demos, result.pairs), "loss");
-    const auto t = std::chrono::steady_clock::now();
-    for (int i = 1; i <= steps; ++i) {
+    auto t = std::chrono::steady_clock::now();
+    auto count_train_time = [&] {
+      const auto now = std::chrono::steady_clock::now();
+      result.train_s += std::chrono::duration<double>(now - t).count();
+      t = now;
+    };
+    for (int i = trainer.steps_done() + 1; i <= steps; ++i) {
       losses.push_back(trainer.step());
       if (!o.quiet) bar.update(i, steps, losses.back());
-      if (o.eval_episodes > 0 && o.eval_every > 0 && i % o.eval_every == 0 && i < steps) {
+      const bool curve_point = o.eval_episodes > 0 && o.eval_every > 0 && i % o.eval_every == 0 && i < steps;
+      if (curve_point) {
+        count_train_time();
         evaluate(i, o.curve_episodes > 0 ? o.curve_episodes : o.eval_episodes);
+        t = std::chrono::steady_clock::now();
+      }
+      if (curve_point || i == steps || (o.save_every > 0 && i % o.save_every == 0) || i == o.stop_after) {
+        count_train_time();
+        save_resume_point(i);
+        if (i == o.stop_after && i < steps) {
+          if (!o.quiet) fmt::print(stderr, "stopped after step {}; the same command continues from {}\n", i, resume_dir);
+          result.stopped = true;
+          return result;
+        }
       }
     }
-    result.train_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count() - result.eval_s;
   }
   const size_t tail = std::min<size_t>(losses.size(), 100);
   result.final_loss = tail == 0 ? NAN : std::accumulate(losses.end() - tail, losses.end(), 0.0) / tail;
   policy.save(o.out + "/policy.pt");
-  std::string loss_csv = "step,loss\n";
-  for (size_t i = 0; i < losses.size(); ++i) loss_csv += fmt::format("{},{:.6g}\n", i + 1, losses[i]);
-  write_text(o.out + "/losses.csv", loss_csv);
+  write_losses();
   if (o.eval_episodes > 0) evaluate(steps, o.eval_episodes);
   if (!o.threshold.empty()) {
     if (o.threshold != "screened" && o.threshold != "both") throw Error("train: --threshold is screened or both, got '" + o.threshold + "'");
@@ -278,6 +361,8 @@ TrainRunResult run_train(const ExperimentConfig& config, const TrainOptions& o) 
                                {"episodes", o.eval_episodes}, {"success_rate", o.eval_episodes > 0 ? result.success : -1.0},
                                {"eval_seed", o.eval_seed}, {"threshold", result.threshold}};
   write_text(o.out + "/summary.json", summary.dump(2) + "\n");
+  std::error_code ec;
+  fs::remove_all(resume_dir, ec);  // done: policy.pt and summary.json are the run's result
   return result;
 }
 

@@ -58,6 +58,10 @@ struct TrainOptions {
   /// Also set Diff-DAgger's threshold over the training pairs (the preset's alpha and N_b):
   /// "" none, "screened" (the default method), "both" (screened and every pair at all rows, timed).
   std::string threshold;
+  /// Leave a resume point (out/resume) every this many steps, besides after each curve point and at
+  /// the end of training; the same command then continues a stopped run from its last one (0: only those).
+  int save_every = 1000;
+  int stop_after = 0;  // stop after this many steps, leaving a resume point (tests; 0: run to the end)
   static constexpr uint64_t kTrainEvalSeed = 950000;  // rollouts start here: never a demonstration's seed
 };
 
@@ -68,10 +72,13 @@ struct TrainRunResult {
   std::vector<std::pair<int, double>> curve;  // (training step, success rate)
   double success = NAN;                       // at the last step; NaN without rollouts
   nlohmann::json threshold;                   // --threshold's figures (null without it)
+  bool stopped = false;                       // stopped at options.stop_after, with a resume point
 };
 
 /// Trains one policy with the config's network and budget (train.steps at train.batch_size) on the
-/// demonstrations, saves it and rolls it out. Only successful episodes' expert steps are used.
+/// demonstrations, saves it and rolls it out. Only successful episodes' expert steps are used. A run
+/// stopped on the way (killed, or at options.stop_after) continues from its last resume point when
+/// called again with the same config and folder; the folder of another config's stopped run is an Error.
 TrainRunResult run_train(const ExperimentConfig& config, const TrainOptions& options);
 
 /// `diffdagger curves DIR`: gathers the `train` runs in DIR's subfolders (summary.json, curve.csv) into

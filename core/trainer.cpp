@@ -2,6 +2,7 @@
 
 #include <chrono>
 #include <cmath>
+#include <filesystem>
 
 #include "core/chunks.h"
 #include "core/nn/policy_impl.h"
@@ -103,6 +104,74 @@ float Trainer::step() {
   if (!std::isfinite(l)) throw Error("train: the loss became non-finite at step " + std::to_string(s.step));
   ++s.step;
   return l;
+}
+
+namespace {
+constexpr const char* kStateFormat = "diffdagger-trainer";
+constexpr int64_t kStateVersion = 1;
+
+std::string first_line(const std::string& s) { return s.substr(0, s.find('\n')); }
+}  // namespace
+
+void Trainer::save_state(const std::string& path) const {
+  const State& s = *state_;
+  torch::serialize::OutputArchive archive, optimizer;
+  archive.write("format", c10::IValue(std::string(kStateFormat)));
+  archive.write("version", c10::IValue(kStateVersion));
+  archive.write("step", c10::IValue(static_cast<int64_t>(s.step)));
+  archive.write("total_steps", c10::IValue(static_cast<int64_t>(s.config.steps)));
+  archive.write("generator", s.gen.get_state());
+  for (size_t i = 0; i < s.ema_params.size(); ++i) archive.write("ema_" + std::to_string(i), s.ema_params[i]);
+  s.opt.save(optimizer);
+  archive.write("optimizer", optimizer);
+  const std::string tmp = path + ".tmp";
+  std::error_code ec;
+  try {
+    archive.save_to(tmp);
+  } catch (const c10::Error& e) {
+    std::filesystem::remove(tmp, ec);
+    throw Error(path + ": could not write the trainer state: " + first_line(e.what()));
+  }
+  std::filesystem::rename(tmp, path, ec);
+  if (ec) {
+    std::filesystem::remove(tmp, ec);
+    throw Error(path + ": could not move the trainer state into place: " + ec.message());
+  }
+}
+
+void Trainer::resume(const std::string& path) {
+  State& s = *state_;
+  if (!std::filesystem::exists(path)) throw Error(path + ": no trainer state to resume from");
+  torch::serialize::InputArchive archive, optimizer;
+  c10::IValue format, version, step, total;
+  try {
+    archive.load_from(path);
+    if (!archive.try_read("format", format) || !format.isString() || format.toStringRef() != kStateFormat)
+      throw Error(path + ": not a diffdagger trainer state (field 'format')");
+    if (!archive.try_read("version", version) || !version.isInt() || version.toInt() != kStateVersion)
+      throw Error(path + ": trainer state version is not " + std::to_string(kStateVersion) + " (field 'version')");
+    archive.read("step", step);
+    archive.read("total_steps", total);
+    if (total.toInt() != s.config.steps)
+      throw Error(path + ": the run it continues has " + std::to_string(total.toInt()) + " steps, this one " +
+                  std::to_string(s.config.steps) + " (field 'total_steps')");
+    torch::Tensor gen_state;
+    archive.read("generator", gen_state);
+    torch::NoGradGuard no_grad;
+    for (size_t i = 0; i < s.ema_params.size(); ++i) {
+      torch::Tensor t;
+      const std::string key = "ema_" + std::to_string(i);
+      archive.read(key, t);
+      if (!t.sizes().equals(s.ema_params[i].sizes())) throw Error(path + ": field '" + key + "' has another shape than the policy's");
+      s.ema_params[i].copy_(t);
+    }
+    archive.read("optimizer", optimizer);
+    s.opt.load(optimizer);
+    s.gen.set_state(gen_state);
+  } catch (const c10::Error& e) {
+    throw Error(path + ": truncated or corrupt trainer state: " + first_line(e.what()));
+  }
+  s.step = static_cast<int>(step.toInt());
 }
 
 TrainStats train(DiffusionPolicy& policy, const ChunkDataset& data, const TrainConfig& config,

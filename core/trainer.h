@@ -3,6 +3,7 @@
 #pragma once
 
 #include <memory>
+#include <string>
 #include <vector>
 
 #include "core/config.h"
@@ -36,6 +37,16 @@ class Trainer {
   /// is not finite.
   float step();
   int steps_done() const;
+
+  /// Writes what continuing needs beyond the policy's own checkpoint (steps done, the optimiser's
+  /// moments, the EMA weights, the minibatch generator) to `path`, atomically; with the policy saved
+  /// beside it, resume() on a new Trainer over the same data and config continues as if never stopped.
+  /// Throws Error naming the file when it cannot be written.
+  void save_state(const std::string& path) const;
+  /// Reads save_state()'s file into this trainer (built over the same data and config, its policy
+  /// loaded from the checkpoint saved at the same step). Throws Error naming the file and what does
+  /// not match (the total number of steps, the parameter shapes) or when it is missing or corrupt.
+  void resume(const std::string& path);
 
  private:
   struct State;

@@ -110,4 +110,56 @@ TEST_F(Checkpoint, FailedSaveLeavesTheOldFileIntact) {
   EXPECT_NO_THROW(DiffusionPolicy::from_checkpoint(path_));
 }
 
+TEST_F(Checkpoint, StoppedTrainingResumesAsIfNeverStopped) {
+  const ChunkDataset data = ChunkDataset::from_episodes(bimodal_episodes(6, 10, 3, 2, 4), 8);
+  TrainConfig t;
+  t.steps = 30;
+  t.batch_size = 16;
+  t.seed = 5;
+  DiffusionPolicy straight(fakes::tiny_policy(3, 2), 1);
+  std::vector<float> losses;
+  {
+    Trainer trainer(straight, data, t);
+    for (int i = 0; i < 30; ++i) losses.push_back(trainer.step());
+  }
+  const std::string state = (dir_ / "trainer.pt").string();
+  {
+    DiffusionPolicy first(fakes::tiny_policy(3, 2), 1);
+    Trainer trainer(first, data, t);
+    for (int i = 0; i < 12; ++i) trainer.step();
+    first.save(path_);
+    trainer.save_state(state);
+  }
+  DiffusionPolicy resumed(fakes::tiny_policy(3, 2), /*seed=*/77);  // other weights until loaded
+  resumed.load(path_);
+  {
+    Trainer trainer(resumed, data, t);
+    trainer.resume(state);
+    EXPECT_EQ(trainer.steps_done(), 12);
+    for (int i = 12; i < 30; ++i) {
+      const float expected = losses[static_cast<size_t>(i)];
+      EXPECT_NEAR(trainer.step(), expected, 1e-5 * (1 + expected)) << "step " << i;
+    }
+  }
+  const Vec obs = data.obs.row(0).transpose();
+  EXPECT_TRUE(straight.sample(obs, 3).isApprox(resumed.sample(obs, 3), 1e-4f)) << "the EMA weights differ";
+
+  // a run of another length, a truncated file and a missing one are refused, naming the file
+  TrainConfig longer = t;
+  longer.steps = 40;
+  DiffusionPolicy other(fakes::tiny_policy(3, 2), 1);
+  {
+    Trainer wrong(other, data, longer);
+    const std::string mismatch = message_of([&] { wrong.resume(state); });
+    EXPECT_NE(mismatch.find(state), std::string::npos) << mismatch;
+    EXPECT_NE(mismatch.find("total_steps"), std::string::npos) << mismatch;
+  }
+  fs::resize_file(state, fs::file_size(state) / 2);
+  Trainer again(other, data, t);
+  const std::string truncated = message_of([&] { again.resume(state); });
+  EXPECT_NE(truncated.find(state), std::string::npos) << truncated;
+  const std::string missing = message_of([&] { again.resume(state + ".none"); });
+  EXPECT_NE(missing.find("no trainer state"), std::string::npos) << missing;
+}
+
 }  // namespace dd

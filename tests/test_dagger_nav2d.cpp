@@ -144,4 +144,58 @@ TEST(Train, BehaviourCloningWritesAPolicyACurveAndAnOutcomeBreakdown) {
   fs::remove_all(root);
 }
 
+TEST(Train, AStoppedRunContinuesFromItsResumePoint) {
+  ExperimentConfig c = preset("nav2d");
+  c.train.steps = 40;
+  c.train.batch_size = 32;
+  TrainOptions o;
+  o.demos = 3;
+  o.eval_episodes = 3;
+  o.eval_every = 20;
+  o.quiet = true;
+  const std::string root = temp_dir("resume");
+  o.out = root + "/straight";
+  const TrainRunResult straight = run_train(c, o);
+  EXPECT_FALSE(fs::exists(o.out + "/resume")) << "a finished run keeps no resume point";
+
+  o.out = root + "/stopped";
+  o.save_every = 10;
+  o.stop_after = 30;  // after the curve point at 20 and the resume point at 30
+  EXPECT_TRUE(run_train(c, o).stopped);
+  EXPECT_FALSE(fs::exists(o.out + "/summary.json"));
+  EXPECT_TRUE(fs::exists(o.out + "/resume/trainer.pt"));
+  o.stop_after = 0;
+  const TrainRunResult resumed = run_train(c, o);
+  EXPECT_FALSE(resumed.stopped);
+  ASSERT_EQ(resumed.curve.size(), straight.curve.size());
+  for (size_t i = 0; i < straight.curve.size(); ++i) {
+    EXPECT_EQ(resumed.curve[i].first, straight.curve[i].first);
+    EXPECT_DOUBLE_EQ(resumed.curve[i].second, straight.curve[i].second) << "step " << straight.curve[i].first;
+  }
+  EXPECT_NEAR(resumed.final_loss, straight.final_loss, 1e-4 * straight.final_loss);
+  const auto lines = [](const std::string& path) {
+    std::ifstream f(path);
+    int n = 0;
+    for (std::string line; std::getline(f, line);) ++n;
+    return n;
+  };
+  EXPECT_EQ(lines(o.out + "/losses.csv"), 41);
+  EXPECT_EQ(lines(o.out + "/curve.csv"), 3);  // header, step 20, step 40
+
+  // a stopped run's folder refuses a run with another config
+  o.out = root + "/other";
+  o.stop_after = 10;
+  run_train(c, o);
+  ExperimentConfig longer = c;
+  longer.train.steps = 50;
+  o.stop_after = 0;
+  try {
+    run_train(longer, o);
+    ADD_FAILURE() << "a different config resumed another run";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find(o.out + "/config.json"), std::string::npos) << e.what();
+  }
+  fs::remove_all(root);
+}
+
 }  // namespace dd::app

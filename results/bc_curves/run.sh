@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # The behaviour-cloning runs behind results/bc_curves: one `diffdagger train` per folder, then
-# `diffdagger curves` per task. Resumable: a run whose summary.json exists is skipped. Each run takes
+# `diffdagger curves` per task. Resumable: a run whose summary.json exists is skipped, and a stopped run
+# continues from its last resume point (every 1000 steps and after each curve point). Each run takes
 # one thread (set DD_THREADS to change it); on 2 cores run two of these scripts' runs side by side at most.
 # Usage: results/bc_curves/run.sh [RUN...]   (from the repository root; default: every run below)
 # Runs made before an observation change (stack n60_6k_obs31_unpinned, n60_16k_obs31; push
