@@ -3,6 +3,7 @@
 #include <cmath>
 #include <random>
 
+#include <ATen/Parallel.h>
 #include <spdlog/spdlog.h>
 
 namespace dd {
@@ -61,17 +62,30 @@ std::pair<float, float> spread_of(const std::vector<std::vector<Mat>>& samples, 
 
 }  // namespace
 
+std::vector<std::vector<Mat>> PolicyEnsemble::sample_members(const Mat& obs, uint64_t seed) const {
+  std::vector<std::vector<Mat>> samples(members_.size());  // [member][row]
+  auto sample = [&](int64_t m) { samples[static_cast<size_t>(m)] = members_[static_cast<size_t>(m)]->sample_batch(obs, seed + static_cast<uint64_t>(m)); };
+  if (parallel_members_) {
+    // One member per thread, each single-threaded inside (torch and OpenBLAS run serially in a
+    // parallel region): small batches keep one core busy better than two.
+    at::parallel_for(0, size(), 1, [&](int64_t begin, int64_t end) {
+      for (int64_t m = begin; m < end; ++m) sample(m);
+    });
+  } else {
+    for (int64_t m = 0; m < size(); ++m) sample(m);
+  }
+  return samples;
+}
+
 std::vector<std::vector<float>> PolicyEnsemble::spread(const Mat& obs, uint64_t seed) const {
-  std::vector<std::vector<Mat>> samples;  // [member][row]
-  for (int m = 0; m < size(); ++m) samples.push_back(members_[static_cast<size_t>(m)]->sample_batch(obs, seed + static_cast<uint64_t>(m)));
+  const std::vector<std::vector<Mat>> samples = sample_members(obs, seed);
   std::vector<std::vector<float>> out(2, std::vector<float>(static_cast<size_t>(obs.rows())));
   for (size_t b = 0; b < out[0].size(); ++b) std::tie(out[0][b], out[1][b]) = spread_of(samples, b);
   return out;
 }
 
 PolicyEnsemble::Decision PolicyEnsemble::decide(const Vec& obs, uint64_t seed) const {
-  std::vector<std::vector<Mat>> samples;
-  for (int m = 0; m < size(); ++m) samples.push_back(members_[static_cast<size_t>(m)]->sample_batch(obs.transpose(), seed + static_cast<uint64_t>(m)));
+  const std::vector<std::vector<Mat>> samples = sample_members(obs.transpose(), seed);
   Decision d;
   d.chunk = samples[0][0];
   std::tie(d.std, d.variance) = spread_of(samples, 0);

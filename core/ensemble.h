@@ -45,10 +45,16 @@ class PolicyEnsemble {
   };
   Decision decide(const Vec& obs, uint64_t seed) const;
 
+  /// Members sample side by side, one per thread (the default), or one after another with every
+  /// thread inside each (the benchmarks' baseline). The chunks are the same either way.
+  void set_parallel_members(bool on) { parallel_members_ = on; }
+
  private:
+  std::vector<std::vector<Mat>> sample_members(const Mat& obs, uint64_t seed) const;  // [member][row]
   std::vector<std::vector<float>> spread(const Mat& obs, uint64_t seed) const;  // [0]: std, [1]: var
   std::vector<std::unique_ptr<DiffusionPolicy>> members_;
   uint64_t seed_;
+  bool parallel_members_ = true;
 };
 
 }  // namespace dd

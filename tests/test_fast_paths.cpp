@@ -3,6 +3,7 @@
 // scalar step against its tensor formulas.
 #include <gtest/gtest.h>
 
+#include "core/ensemble.h"
 #include "core/nn/fast_unet.h"
 #include "core/nn/mish.h"
 #include "core/nn/policy_impl.h"
@@ -117,6 +118,27 @@ TEST(FastPaths, ScalarSchedulerStepMatchesTheTensorFormulas) {
       EXPECT_TRUE(torch::allclose(sched.step(out, t, x_t, g), expected, 1e-3, 1e-4)) << to_string(p) << " t " << t;
     }
   }
+}
+
+TEST(FastPaths, EnsembleMembersSampledSideBySideGiveTheSameChunks) {
+  PolicyConfig c;
+  c.obs_dim = 5;
+  c.action_dim = 3;
+  c.horizon = 16;
+  c.unet = unet_preset("cpu");
+  PolicyEnsemble ensemble(c, 3, 4);
+  Mat obs = Mat::Random(6, 5);
+  ensemble.set_parallel_members(false);
+  const std::vector<float> one_by_one = ensemble.action_variance(obs, 9);
+  const PolicyEnsemble::Decision a = ensemble.decide(obs.row(0).transpose(), 5);
+  ensemble.set_parallel_members(true);
+  const std::vector<float> side_by_side = ensemble.action_variance(obs, 9);
+  const PolicyEnsemble::Decision b = ensemble.decide(obs.row(0).transpose(), 5);
+  ASSERT_EQ(one_by_one.size(), side_by_side.size());
+  for (size_t i = 0; i < one_by_one.size(); ++i) EXPECT_NEAR(one_by_one[i], side_by_side[i], 1e-5 * (1 + one_by_one[i])) << i;
+  EXPECT_TRUE(a.chunk.isApprox(b.chunk, 1e-5f));
+  EXPECT_NEAR(a.variance, b.variance, 1e-5 * (1 + a.variance));
+  EXPECT_GT(a.variance, 0) << "members initialised alike";
 }
 
 }  // namespace dd

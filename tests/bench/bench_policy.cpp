@@ -5,6 +5,7 @@
 //   ...Torch      the same on torch's operators (the path before FastDenoiser, for the ratio)
 //   ExpectedLoss  one expected loss at N_b = 512
 //   Decision      sampling plus expected loss: what every control decision costs
+//   EnsembleDecision  5 members sample a chunk each, side by side (...Serial: one after another)
 //   Threshold     the alpha-quantile of 400 pairs' expected losses, screened; ...AllRows: unscreened
 //   Sgemm         a large square sgemm through the same OpenBLAS: this machine's practical fp32
 //                 peak, the yardstick for the others (counter GFLOPS)
@@ -15,6 +16,7 @@
 #include <memory>
 
 #include "core/chunks.h"
+#include "core/ensemble.h"
 #include "core/nn/mish.h"
 #include "core/nn/policy_impl.h"
 #include "core/policy.h"
@@ -82,6 +84,16 @@ void Decision(benchmark::State& state, const PolicyConfig& config, bool torch_de
   for (auto _ : state) benchmark::DoNotOptimize(policy.decide(obs, seed++, kDefaultLossSamples));
 }
 
+// One Ensemble-DAgger decision: 5 members each sample a chunk (side by side, or one after another).
+void EnsembleDecision(benchmark::State& state, const PolicyConfig& config, bool parallel) {
+  PolicyEnsemble ensemble(config, 5, 0);
+  ensemble.set_parallel_members(parallel);
+  const Vec obs = bench_data().obs.row(0).transpose();
+  uint64_t seed = 0;
+  ensemble.decide(obs, seed++);
+  for (auto _ : state) benchmark::DoNotOptimize(ensemble.decide(obs, seed++));
+}
+
 // The threshold over 400 training pairs of a briefly trained policy, screened (1/8 of the rows
 // first) or every pair at N_b = 512; counter `refined`: pairs scored at 512 rows.
 void Threshold(benchmark::State& state, const PolicyConfig& config, bool screen) {
@@ -127,6 +139,10 @@ BENCHMARK_CAPTURE(Sample, 32_64_128, kCpuDefault, true)->Name("BM_SampleTorch_32
 BENCHMARK_CAPTURE(ExpectedLoss, 32_64_128, kCpuDefault)->Name("BM_ExpectedLoss_32_64_128")->Unit(benchmark::kMillisecond);
 BENCHMARK_CAPTURE(Decision, 32_64_128, kCpuDefault, false)->Name("BM_Decision_32_64_128")->Unit(benchmark::kMillisecond);
 BENCHMARK_CAPTURE(Decision, 32_64_128, kCpuDefault, true)->Name("BM_DecisionTorch_32_64_128")->Unit(benchmark::kMillisecond);
+BENCHMARK_CAPTURE(EnsembleDecision, 32_64_128, kCpuDefault, true)->Name("BM_EnsembleDecision_32_64_128")->Unit(benchmark::kMillisecond);
+BENCHMARK_CAPTURE(EnsembleDecision, 32_64_128, kCpuDefault, false)->Name("BM_EnsembleDecisionSerial_32_64_128")->Unit(benchmark::kMillisecond);
+BENCHMARK_CAPTURE(EnsembleDecision, 64_128_256, kReference, true)->Name("BM_EnsembleDecision_64_128_256")->Unit(benchmark::kMillisecond);
+BENCHMARK_CAPTURE(EnsembleDecision, 64_128_256, kReference, false)->Name("BM_EnsembleDecisionSerial_64_128_256")->Unit(benchmark::kMillisecond);
 BENCHMARK_CAPTURE(Threshold, 32_64_128, kCpuDefault, true)->Name("BM_Threshold_32_64_128")->Unit(benchmark::kMillisecond)->Iterations(2);
 BENCHMARK_CAPTURE(Threshold, 32_64_128, kCpuDefault, false)->Name("BM_ThresholdAllRows_32_64_128")->Unit(benchmark::kMillisecond)->Iterations(2);
 
