@@ -6,6 +6,7 @@
 //   ExpectedLoss  one expected loss at N_b = 512
 //   Decision      sampling plus expected loss: what every control decision costs
 //   EnsembleDecision  5 members sample a chunk each, side by side (...Serial: one after another)
+//   EnsembleConv  5 members' convolution forward and backward: separate, or grouped (groups = 5)
 //   Threshold     the alpha-quantile of 400 pairs' expected losses, screened; ...AllRows: unscreened
 //   Sgemm         a large square sgemm through the same OpenBLAS: this machine's practical fp32
 //                 peak, the yardstick for the others (counter GFLOPS)
@@ -109,6 +110,27 @@ void Threshold(benchmark::State& state, const PolicyConfig& config, bool screen)
   state.counters["refined"] = q.refined;
 }
 
+// Would a batched ensemble train faster? One U-Net-sized convolution (64 -> 64 channels, kernel 5,
+// T 32, batch 128), forward and backward, for 5 members: 5 separate convolutions, or one grouped
+// convolution over the members' stacked channels (groups = 5).
+void EnsembleConv(benchmark::State& state, bool grouped) {
+  constexpr int M = 5, C = 64, K = 5, T = 32, B = 128;
+  std::vector<torch::Tensor> w, x;
+  for (int m = 0; m < M; ++m) {
+    w.push_back(torch::randn({C, C, K}).requires_grad_(true));
+    x.push_back(torch::randn({B, C, T}));
+  }
+  const torch::Tensor wg = torch::cat(w, 0).detach().requires_grad_(true);
+  const torch::Tensor xg = torch::cat(x, 1);
+  for (auto _ : state) {
+    if (grouped) {
+      torch::conv1d(xg, wg, {}, 1, K / 2, 1, M).sum().backward();
+    } else {
+      for (int m = 0; m < M; ++m) torch::conv1d(x[m], w[m], {}, 1, K / 2).sum().backward();
+    }
+  }
+}
+
 // What the machine's BLAS reaches on a large product, as GFLOPS.
 void Sgemm(benchmark::State& state) {
   const int n = static_cast<int>(state.range(0));
@@ -143,6 +165,8 @@ BENCHMARK_CAPTURE(EnsembleDecision, 32_64_128, kCpuDefault, true)->Name("BM_Ense
 BENCHMARK_CAPTURE(EnsembleDecision, 32_64_128, kCpuDefault, false)->Name("BM_EnsembleDecisionSerial_32_64_128")->Unit(benchmark::kMillisecond);
 BENCHMARK_CAPTURE(EnsembleDecision, 64_128_256, kReference, true)->Name("BM_EnsembleDecision_64_128_256")->Unit(benchmark::kMillisecond);
 BENCHMARK_CAPTURE(EnsembleDecision, 64_128_256, kReference, false)->Name("BM_EnsembleDecisionSerial_64_128_256")->Unit(benchmark::kMillisecond);
+BENCHMARK_CAPTURE(EnsembleConv, separate, false)->Name("BM_EnsembleConvSeparate")->Unit(benchmark::kMillisecond);
+BENCHMARK_CAPTURE(EnsembleConv, grouped, true)->Name("BM_EnsembleConvGrouped")->Unit(benchmark::kMillisecond);
 BENCHMARK_CAPTURE(Threshold, 32_64_128, kCpuDefault, true)->Name("BM_Threshold_32_64_128")->Unit(benchmark::kMillisecond)->Iterations(2);
 BENCHMARK_CAPTURE(Threshold, 32_64_128, kCpuDefault, false)->Name("BM_ThresholdAllRows_32_64_128")->Unit(benchmark::kMillisecond)->Iterations(2);
 
