@@ -71,6 +71,13 @@ void PolicyConfig::validate() const {
   check(action_dim > 0, "action_dim", "must be positive");
   check(horizon > 0, "horizon", "must be positive");
   check(action_steps > 0 && action_steps <= horizon, "action_steps", "must be in [1, horizon]");
+  std::vector<bool> relative(static_cast<size_t>(std::max(action_dim, 0)), false);
+  for (const auto& [a, o] : relative_actions) {
+    check(a >= 0 && a < action_dim && o >= 0 && o < obs_dim, "relative_actions",
+          "pair [" + std::to_string(a) + ", " + std::to_string(o) + "] is not [action index < action_dim, observation index < obs_dim]");
+    check(!relative[static_cast<size_t>(a)], "relative_actions", "action index " + std::to_string(a) + " appears twice");
+    relative[static_cast<size_t>(a)] = true;
+  }
   check(!unet.down_dims.empty(), "unet.down_dims", "must not be empty");
   const int levels = static_cast<int>(unet.down_dims.size());
   check(horizon % (1 << (levels - 1)) == 0, "horizon",
@@ -152,12 +159,14 @@ void from_json(const nlohmann::json& j, SchedulerConfig& c) {
 void to_json(nlohmann::json& j, const PolicyConfig& c) {
   j = json{{"obs_dim", c.obs_dim},         {"action_dim", c.action_dim},
            {"horizon", c.horizon},         {"action_steps", c.action_steps},
-           {"unet", c.unet},               {"scheduler", c.scheduler}};
+           {"unet", c.unet},               {"scheduler", c.scheduler},
+           {"relative_actions", c.relative_actions}};
 }
 
 void from_json(const nlohmann::json& j, PolicyConfig& c) {
-  require_known_keys(j, {"obs_dim", "action_dim", "horizon", "action_steps", "unet", "scheduler"},
+  require_known_keys(j, {"obs_dim", "action_dim", "horizon", "action_steps", "unet", "scheduler", "relative_actions"},
                      "policy");
+  read(j, "relative_actions", c.relative_actions, "policy");
   read(j, "obs_dim", c.obs_dim, "policy");
   read(j, "action_dim", c.action_dim, "policy");
   read(j, "horizon", c.horizon, "policy");

@@ -4,6 +4,7 @@
 // with a ConfigError that names the key, so a typo is an error and never a silent default.
 #pragma once
 
+#include <array>
 #include <cstdint>
 #include <stdexcept>
 #include <string>
@@ -50,6 +51,11 @@ struct PolicyConfig {
   int action_steps = 8;    // T_a: actions executed per chunk
   UnetConfig unet;
   SchedulerConfig scheduler;
+  /// Action features the network sees relative to a feature of the chunk's own observation: pairs
+  /// (action index, observation index). The model learns action[a] - obs[o] at every step of the
+  /// chunk, and generated chunks get obs[o] added back (e.g. TCP targets relative to the TCP position
+  /// observed when the chunk was planned). Empty: absolute actions.
+  std::vector<std::array<int, 2>> relative_actions;
 
   /// Throws Error naming the field if the shapes are inconsistent.
   void validate() const;

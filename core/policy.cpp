@@ -59,11 +59,31 @@ torch::Tensor DiffusionPolicy::Impl::obs_tensor(const Mat& obs) const {
   return to_tensor(obs_norm.normalize(obs));
 }
 
-torch::Tensor DiffusionPolicy::Impl::chunk_tensor(const Mat& chunk_rows) const {
+Mat DiffusionPolicy::Impl::relative_chunks(const Mat& obs, const Mat& chunk_rows) const {
+  if (config.relative_actions.empty()) return chunk_rows;
+  if (obs.rows() != chunk_rows.rows() || obs.cols() != config.obs_dim)
+    throw Error("policy: " + std::to_string(chunk_rows.rows()) + " chunks but " + std::to_string(obs.rows()) + " observations of " +
+                std::to_string(obs.cols()) + " features (obs_dim " + std::to_string(config.obs_dim) + ")");
+  Mat out = chunk_rows;
+  const int A = config.action_dim;
+  for (Eigen::Index b = 0; b < out.rows(); ++b)
+    for (int k = 0; k < config.horizon; ++k)
+      for (const auto& [a, o] : config.relative_actions) out(b, k * A + a) -= obs(b, o);
+  return out;
+}
+
+Mat DiffusionPolicy::Impl::raw_chunk(const torch::Tensor& chunk, const Eigen::Ref<const Vec>& obs) const {
+  Mat m = act_norm.unnormalize(to_mat(chunk.reshape({config.horizon, config.action_dim})));
+  for (const auto& [a, o] : config.relative_actions) m.col(a).array() += obs[o];
+  return m;
+}
+
+torch::Tensor DiffusionPolicy::Impl::chunk_tensor(const Mat& obs, const Mat& raw_rows) const {
   const int A = config.action_dim, T = config.horizon;
-  if (chunk_rows.cols() != T * A)
-    throw Error("policy: action chunk has " + std::to_string(chunk_rows.cols()) + " values, expected horizon*action_dim = " +
+  if (raw_rows.cols() != T * A)
+    throw Error("policy: action chunk has " + std::to_string(raw_rows.cols()) + " values, expected horizon*action_dim = " +
                 std::to_string(T * A));
+  const Mat chunk_rows = relative_chunks(obs, raw_rows);
   const Mat steps = Eigen::Map<const Mat>(chunk_rows.data(), chunk_rows.rows() * T, A);
   return to_tensor(act_norm.normalize(steps)).view({chunk_rows.rows(), T, A});
 }
@@ -179,7 +199,7 @@ std::vector<Mat> DiffusionPolicy::sample_batch(const Mat& obs, uint64_t seed) co
   const torch::Tensor x = impl_->sample(impl_->obs_tensor(obs), gen);
   std::vector<Mat> out;
   out.reserve(static_cast<size_t>(obs.rows()));
-  for (int64_t b = 0; b < x.size(0); ++b) out.push_back(impl_->act_norm.unnormalize(to_mat(x[b])));
+  for (int64_t b = 0; b < x.size(0); ++b) out.push_back(impl_->raw_chunk(x[b], obs.row(b).transpose()));
   return out;
 }
 
@@ -201,7 +221,7 @@ ScoreWeights DiffusionPolicy::score_weights() const { return impl_->score_weight
 float DiffusionPolicy::expected_loss(const Vec& obs, const Mat& chunk, uint64_t seed, int n_samples) const {
   torch::Generator gen = make_generator(seed);
   const Mat row = Eigen::Map<const Mat>(chunk.data(), 1, chunk.size());
-  return impl_->expected_loss(impl_->obs_tensor(obs.transpose()), impl_->chunk_tensor(row), n_samples, gen)
+  return impl_->expected_loss(impl_->obs_tensor(obs.transpose()), impl_->chunk_tensor(obs.transpose(), row), n_samples, gen)
       .item<float>();
 }
 
@@ -209,7 +229,7 @@ std::vector<float> DiffusionPolicy::expected_losses(const ChunkDataset& data, ui
                                                     const ProgressFn& progress) const {
   torch::Generator gen = make_generator(seed);
   const torch::Tensor obs = impl_->obs_tensor(data.obs);
-  const torch::Tensor chunks = impl_->chunk_tensor(data.chunks);
+  const torch::Tensor chunks = impl_->chunk_tensor(data.obs, data.chunks);
   const int64_t per_pass = std::max<int64_t>(1, kRowsPerPass / n_samples);
   std::vector<float> out;
   out.reserve(static_cast<size_t>(data.size()));
@@ -240,7 +260,7 @@ LossQuantile DiffusionPolicy::loss_quantile(const ChunkDataset& data, double alp
   q.screen_samples = m;
   torch::Generator gen = make_generator(seed);
   const torch::Tensor obs = impl_->obs_tensor(data.obs);
-  const torch::Tensor chunks = impl_->chunk_tensor(data.chunks);
+  const torch::Tensor chunks = impl_->chunk_tensor(data.obs, data.chunks);
   const auto n = static_cast<size_t>(data.size());
   const int64_t k = m / T;  // rows per timestep
   std::vector<float> screened(n), bound(n);  // screening mean, and mean + z standard errors
@@ -296,7 +316,7 @@ Decision DiffusionPolicy::decide(const Vec& obs, uint64_t seed, int n_samples) c
   const torch::Tensor x = impl_->sample(o, gen);
   Decision d;
   d.loss = impl_->expected_loss(o, x, n_samples, gen).item<float>();
-  d.chunk = impl_->act_norm.unnormalize(to_mat(x[0]));
+  d.chunk = impl_->raw_chunk(x[0], obs);
   return d;
 }
 

@@ -55,15 +55,19 @@ Trainer::Trainer(DiffusionPolicy& policy, const ChunkDataset& data, const TrainC
     throw Error("train: data set shapes (obs " + std::to_string(data.obs_dim()) + ", action " +
                 std::to_string(data.action_dim) + ", horizon " + std::to_string(data.horizon) +
                 ") do not match the policy config");
-  if (config.fit_normalizer)
-    policy.set_normalizers(Normalizer::fit(data.obs), Normalizer::fit(data.action_rows(), Normalizer::Constants::kPin));
+  if (config.fit_normalizer) {
+    // the actions as the model sees them (relative to their observations where the config says so)
+    const Mat chunks = policy.impl().relative_chunks(data.obs, data.chunks);
+    const Mat actions = Eigen::Map<const Mat>(chunks.data(), chunks.rows() * data.horizon, data.action_dim);
+    policy.set_normalizers(Normalizer::fit(data.obs), Normalizer::fit(actions, Normalizer::Constants::kPin));
+  }
   TrainConfig resolved = config;
   resolved.steps = config.steps_for(data.size());  // the learning-rate schedule spans the steps actually run
   resolved.epochs = 0;
   state_ = std::make_unique<State>(policy, resolved);
   auto& impl = state_->impl;
   state_->obs = impl.obs_tensor(data.obs);
-  state_->chunks = impl.chunk_tensor(data.chunks);
+  state_->chunks = impl.chunk_tensor(data.obs, data.chunks);
   impl.model->train();
   impl.copy_model_to_ema();
   state_->ema_params = impl.ema->parameters();

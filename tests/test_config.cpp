@@ -34,6 +34,16 @@ TEST(PolicyConfig, ValidationNamesTheField) {
   c = PolicyConfig{};
   c.scheduler.num_inference_steps = 100;
   EXPECT_THROW(c.validate(), Error);
+  for (const auto& pairs : {std::vector<std::array<int, 2>>{{2, 0}}, {{0, 4}}, {{0, 1}, {0, 2}}}) {
+    c = PolicyConfig{};  // action_dim 2, obs_dim 4: out of range, and an action index twice
+    c.relative_actions = pairs;
+    try {
+      c.validate();
+      ADD_FAILURE() << "expected an error";
+    } catch (const Error& e) {
+      EXPECT_NE(std::string(e.what()).find("relative_actions"), std::string::npos) << e.what();
+    }
+  }
 }
 
 TEST(PolicyConfig, JsonRoundTrip) {
@@ -42,9 +52,15 @@ TEST(PolicyConfig, JsonRoundTrip) {
   c.unet = unet_preset("medium");
   c.scheduler.prediction = PredictionType::kEpsilon;
   c.scheduler.sampler = SamplerType::kDdim;
+  c.relative_actions = {{0, 2}, {1, 3}};
   const std::string text = nlohmann::json(c).dump();
   const PolicyConfig back = policy_config_from_json(text, "mem");
   EXPECT_TRUE(config_differences(c, back).empty());
+  EXPECT_EQ(back.relative_actions, c.relative_actions);
+  // a config written before relative_actions existed reads as absolute actions
+  nlohmann::json old = nlohmann::json(PolicyConfig{});
+  old.erase("relative_actions");
+  EXPECT_TRUE(policy_config_from_json(old.dump(), "old").relative_actions.empty());
   EXPECT_EQ(back.scheduler.prediction, PredictionType::kEpsilon);
 }
 

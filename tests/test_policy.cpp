@@ -8,6 +8,7 @@
 #include <cstdio>
 #include <memory>
 #include <numeric>
+#include <random>
 
 #include "core/chunks.h"
 #include "core/gate.h"
@@ -146,6 +147,46 @@ TEST_F(BimodalPolicy, ScreenedThresholdIsTheAllRowsOne) {
     EXPECT_GE(q.threshold, *lo - tol) << seed;
     EXPECT_LE(q.threshold, *hi + tol) << seed;
   }
+}
+
+// Targets at a fixed offset from an observed position, over a wide range of positions: relative to
+// the observation they are one value, which the model gets exactly, where the absolute policy has to
+// learn the identity map over the whole range.
+TEST(RelativeActions, ChunksAreLearnedInTheObservationsFrame) {
+  std::vector<Episode> episodes;
+  std::mt19937 rng(3);
+  std::uniform_real_distribution<float> u(-1, 1);
+  for (int e = 0; e < 20; ++e) {
+    Episode ep;
+    ep.obs.resize(12, 2);
+    ep.actions.resize(12, 2);
+    const float position = u(rng);  // one per episode
+    for (int t = 0; t < 12; ++t) {
+      ep.obs.row(t) << position, u(rng);
+      ep.actions.row(t) << position + 0.25f, 0.5f * u(rng);  // action 0: the observed position + 0.25
+    }
+    episodes.push_back(ep);
+  }
+  const ChunkDataset data = ChunkDataset::from_episodes(episodes, 8);
+  TrainConfig t;
+  t.steps = 100;
+  t.batch_size = 64;
+  t.lr = 1e-3;
+  t.warmup_steps = 10;
+  double error[2] = {0, 0};
+  for (int relative : {0, 1}) {
+    PolicyConfig c = fakes::tiny_policy();
+    if (relative) c.relative_actions = {{0, 0}};
+    DiffusionPolicy policy(c, 5);
+    train(policy, data, t);
+    for (int i = 0; i < 10; ++i) {
+      const Vec obs = Eigen::Vector2f(-0.9f + 0.2f * i, 0.3f);
+      const Mat chunk = policy.sample(obs, 40 + i);
+      error[relative] += (chunk.col(0).array() - (obs[0] + 0.25f)).abs().mean() / 10;
+    }
+  }
+  EXPECT_LT(error[1], 1e-3) << "every step of a relative chunk is its observation plus the offset";
+  EXPECT_GT(error[0], 10 * error[1]) << "absolute " << error[0] << " relative " << error[1];
 }
 
 TEST_F(BimodalPolicy, DecisionGivesAChunkInRangeAndAFiniteLoss) {

@@ -27,8 +27,13 @@ struct DiffusionPolicy::Impl {
   void copy_model_to_ema();
   /// Normalised observations as a (B, obs_dim) tensor.
   torch::Tensor obs_tensor(const Mat& obs) const;
-  /// Normalised chunks: rows of (T_p * A) -> (B, T_p, A).
-  torch::Tensor chunk_tensor(const Mat& chunk_rows) const;
+  /// Chunks as the model sees them, normalised: rows of (T_p * A) raw actions, each with the row of
+  /// `obs` (raw) it was planned from -> (B, T_p, A).
+  torch::Tensor chunk_tensor(const Mat& obs, const Mat& chunk_rows) const;
+  /// Raw chunk rows made relative to their observations (config.relative_actions; unchanged without).
+  Mat relative_chunks(const Mat& obs, const Mat& chunk_rows) const;
+  /// A generated chunk (1, T_p, A) or (T_p, A), normalised, back to raw actions for its raw observation.
+  Mat raw_chunk(const torch::Tensor& chunk, const Eigen::Ref<const Vec>& obs) const;
   /// Expected loss for B pairs: obs (B, obs_dim) and chunks (B, T_p, A), both normalised -> (B).
   torch::Tensor expected_loss(const torch::Tensor& obs, const torch::Tensor& chunks, int n_samples,
                               torch::Generator& gen) const;
