@@ -1,8 +1,11 @@
 #include "core/trainer.h"
 
+#include <atomic>
 #include <chrono>
 #include <cmath>
 #include <filesystem>
+
+#include <ATen/Parallel.h>
 
 #include "core/chunks.h"
 #include "core/nn/policy_impl.h"
@@ -30,6 +33,28 @@ double scheduled_lr(const TrainConfig& c, int step, int total) {
   return c.lr * 0.5 * (1.0 + std::cos(M_PI * progress));
 }
 
+namespace {
+std::atomic<bool> fused_optimizer{true};
+
+// AdamW (torch's formulas: decoupled weight decay, then the moments, bias-corrected) on flat buffers,
+// with the gradient scaled by `clip` on the way.
+void adamw(float* p, const float* g, float* m, float* v, int64_t n, float clip, double lr, const TrainConfig& c, int step) {
+  const float decay = static_cast<float>(1 - lr * c.weight_decay), b1 = static_cast<float>(c.beta1), b2 = static_cast<float>(c.beta2);
+  const float bc1 = static_cast<float>(1 - std::pow(c.beta1, step)), bc2_sqrt = static_cast<float>(std::sqrt(1 - std::pow(c.beta2, step)));
+  const float step_size = static_cast<float>(lr) / bc1, eps = 1e-8f;
+  at::parallel_for(0, n, 1 << 15, [&](int64_t begin, int64_t end) {
+    for (int64_t i = begin; i < end; ++i) {
+      const float gi = g[i] * clip;
+      m[i] = m[i] * b1 + gi * (1 - b1);
+      v[i] = v[i] * b2 + gi * gi * (1 - b2);
+      p[i] = p[i] * decay - step_size * m[i] / (std::sqrt(v[i]) / bc2_sqrt + eps);
+    }
+  });
+}
+}  // namespace
+
+void set_fused_optimizer(bool on) { fused_optimizer = on; }
+
 struct Trainer::State {
   State(DiffusionPolicy& p, const TrainConfig& c)
       : impl(p.impl()),
@@ -42,9 +67,35 @@ struct Trainer::State {
   TrainConfig config;
   torch::Generator gen;
   std::vector<torch::Tensor> params, ema_params;
-  torch::optim::AdamW opt;
+  torch::optim::AdamW opt;  // the reference path's optimiser (idle when fused)
+  bool fused = fused_optimizer;
+  // fused: every parameter, its gradient and its EMA weight is a view into these
+  torch::Tensor flat, flat_grad, flat_ema, exp_avg, exp_avg_sq;
   torch::Tensor obs, chunks;  // normalised training pairs
   int step = 0;
+
+  // Moves the parameters, their gradients and the EMA weights into flat buffers (views keep the
+  // modules' tensors valid) and starts the moments at zero.
+  void flatten() {
+    torch::NoGradGuard no_grad;
+    int64_t n = 0;
+    for (const auto& p : params) n += p.numel();
+    flat = torch::empty({n});
+    flat_grad = torch::zeros({n});
+    flat_ema = torch::empty({n});
+    exp_avg = torch::zeros({n});
+    exp_avg_sq = torch::zeros({n});
+    int64_t off = 0;
+    for (size_t i = 0; i < params.size(); ++i) {
+      const int64_t k = params[i].numel();
+      flat.narrow(0, off, k).copy_(params[i].reshape(-1));
+      flat_ema.narrow(0, off, k).copy_(ema_params[i].reshape(-1));
+      params[i].set_data(flat.narrow(0, off, k).view(params[i].sizes()));
+      params[i].mutable_grad() = flat_grad.narrow(0, off, k).view(params[i].sizes());
+      ema_params[i].set_data(flat_ema.narrow(0, off, k).view(ema_params[i].sizes()));
+      off += k;
+    }
+  }
 };
 
 Trainer::Trainer(DiffusionPolicy& policy, const ChunkDataset& data, const TrainConfig& config) {
@@ -71,6 +122,7 @@ Trainer::Trainer(DiffusionPolicy& policy, const ChunkDataset& data, const TrainC
   impl.model->train();
   impl.copy_model_to_ema();
   state_->ema_params = impl.ema->parameters();
+  if (state_->fused) state_->flatten();
 }
 
 Trainer::~Trainer() {
@@ -92,15 +144,27 @@ float Trainer::step() {
   const torch::Tensor pred = impl.model->forward(impl.scheduler.add_noise(x0, eps, t), t, o);
   const torch::Tensor loss = torch::mse_loss(pred, impl.scheduler.target(x0, eps, t));
 
-  s.opt.zero_grad();
-  loss.backward();
-  if (c.grad_clip > 0) torch::nn::utils::clip_grad_norm_(s.params, c.grad_clip);
-  for (auto& group : s.opt.param_groups()) group.options().set_lr(scheduled_lr(c, s.step, c.steps));
-  s.opt.step();
-
-  {  // EMA with warm-up: decay = 1 - (1 + step)^-power, capped; the first update copies.
+  // EMA with warm-up: decay = 1 - (1 + step)^-power, capped; the first update copies.
+  const double decay = std::min(c.ema_max_decay, 1.0 - std::pow(1.0 + s.step, -c.ema_power));
+  if (s.fused) {
+    s.flat_grad.zero_();
+    loss.backward();
+    float clip = 1;
+    if (c.grad_clip > 0) {
+      const double norm = s.flat_grad.norm().item<double>(), coef = c.grad_clip / (norm + 1e-6);
+      if (coef < 1) clip = static_cast<float>(coef);
+    }
+    adamw(s.flat.data_ptr<float>(), s.flat_grad.data_ptr<float>(), s.exp_avg.data_ptr<float>(), s.exp_avg_sq.data_ptr<float>(),
+          s.flat.numel(), clip, scheduled_lr(c, s.step, c.steps), c, s.step + 1);
     torch::NoGradGuard no_grad;
-    const double decay = std::min(c.ema_max_decay, 1.0 - std::pow(1.0 + s.step, -c.ema_power));
+    s.flat_ema.mul_(decay).add_(s.flat, 1.0 - decay);
+  } else {
+    s.opt.zero_grad();
+    loss.backward();
+    if (c.grad_clip > 0) torch::nn::utils::clip_grad_norm_(s.params, c.grad_clip);
+    for (auto& group : s.opt.param_groups()) group.options().set_lr(scheduled_lr(c, s.step, c.steps));
+    s.opt.step();
+    torch::NoGradGuard no_grad;
     torch::_foreach_mul_(s.ema_params, decay);
     torch::_foreach_add_(s.ema_params, s.params, 1.0 - decay);
   }
@@ -126,8 +190,13 @@ void Trainer::save_state(const std::string& path) const {
   archive.write("total_steps", c10::IValue(static_cast<int64_t>(s.config.steps)));
   archive.write("generator", s.gen.get_state());
   for (size_t i = 0; i < s.ema_params.size(); ++i) archive.write("ema_" + std::to_string(i), s.ema_params[i]);
-  s.opt.save(optimizer);
-  archive.write("optimizer", optimizer);
+  if (s.fused) {
+    archive.write("exp_avg", s.exp_avg);
+    archive.write("exp_avg_sq", s.exp_avg_sq);
+  } else {
+    s.opt.save(optimizer);
+    archive.write("optimizer", optimizer);
+  }
   const std::string tmp = path + ".tmp";
   std::error_code ec;
   try {
@@ -169,8 +238,17 @@ void Trainer::resume(const std::string& path) {
       if (!t.sizes().equals(s.ema_params[i].sizes())) throw Error(path + ": field '" + key + "' has another shape than the policy's");
       s.ema_params[i].copy_(t);
     }
-    archive.read("optimizer", optimizer);
-    s.opt.load(optimizer);
+    if (s.fused) {
+      torch::Tensor m, v;
+      if (!archive.try_read("exp_avg", m) || !archive.try_read("exp_avg_sq", v) || m.numel() != s.exp_avg.numel() ||
+          v.numel() != s.exp_avg_sq.numel())
+        throw Error(path + ": no AdamW moments of this policy's size (fields 'exp_avg', 'exp_avg_sq')");
+      s.exp_avg.copy_(m);
+      s.exp_avg_sq.copy_(v);
+    } else {
+      archive.read("optimizer", optimizer);
+      s.opt.load(optimizer);
+    }
     s.gen.set_state(gen_state);
   } catch (const c10::Error& e) {
     throw Error(path + ": truncated or corrupt trainer state: " + first_line(e.what()));

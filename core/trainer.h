@@ -60,6 +60,12 @@ class Trainer {
 TrainStats train(DiffusionPolicy& policy, const ChunkDataset& data, const TrainConfig& config,
                  const ProgressFn& progress = {});
 
+/// Trainers built after this call update the weights with the fused optimiser (the default: the
+/// parameters, gradients, AdamW moments and EMA weights live in flat buffers, and clipping, AdamW and
+/// the EMA are a few passes over them) or with torch's AdamW per parameter tensor (the benchmarks'
+/// baseline). Both compute the same update.
+void set_fused_optimizer(bool on);
+
 /// The learning rate at `step` of `total`: linear warm-up, then cosine decay to zero.
 double scheduled_lr(const TrainConfig& config, int step, int total);
 

@@ -3,7 +3,10 @@
 // scalar step against its tensor formulas.
 #include <gtest/gtest.h>
 
+#include "core/chunks.h"
 #include "core/ensemble.h"
+#include "core/synthetic.h"
+#include "core/trainer.h"
 #include "core/nn/fast_unet.h"
 #include "core/nn/mish.h"
 #include "core/nn/policy_impl.h"
@@ -139,6 +142,31 @@ TEST(FastPaths, EnsembleMembersSampledSideBySideGiveTheSameChunks) {
   EXPECT_TRUE(a.chunk.isApprox(b.chunk, 1e-5f));
   EXPECT_NEAR(a.variance, b.variance, 1e-5 * (1 + a.variance));
   EXPECT_GT(a.variance, 0) << "members initialised alike";
+}
+
+TEST(FastPaths, FusedOptimizerTrainsLikeTorchsAdamW) {
+  PolicyConfig c;
+  c.obs_dim = 5;
+  c.action_dim = 3;
+  c.horizon = 16;
+  c.unet = unet_preset("tiny");
+  const ChunkDataset data = ChunkDataset::from_episodes(bimodal_episodes(10, 20, 5, 3, 2), 16);
+  TrainConfig t;
+  t.steps = 40;
+  t.batch_size = 32;
+  t.warmup_steps = 5;
+  t.grad_clip = 0.05;  // small enough to clip most steps
+  std::vector<std::vector<float>> losses;
+  std::vector<Mat> samples;
+  for (bool fused : {false, true}) {
+    set_fused_optimizer(fused);
+    DiffusionPolicy policy(c, 3, false);
+    losses.push_back(train(policy, data, t).losses);
+    samples.push_back(policy.sample(data.obs.row(0).transpose(), 9));
+  }
+  set_fused_optimizer(true);
+  for (size_t i = 0; i < losses[0].size(); ++i) EXPECT_NEAR(losses[1][i], losses[0][i], 1e-4 * (1 + losses[0][i])) << "step " << i;
+  EXPECT_TRUE(samples[1].isApprox(samples[0], 1e-3f)) << "the EMA weights differ";
 }
 
 }  // namespace dd

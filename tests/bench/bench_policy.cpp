@@ -1,6 +1,7 @@
 // Speed of the diffusion policy's hot paths, for the paper's reference size (down_dims 64,128,256,
 // observation dim 20, action dim 10, T_p 16, T_d 16) and for the CPU default (down_dims 32,64,128):
-//   TrainStep     one gradient step at batch 256 (TrainStepTorchMish: with torch's Mish kernels)
+//   TrainStep     one gradient step at batch 256 (TrainStepTorchMish: with torch's Mish kernels;
+//                 TrainStepTorchAdamW: with torch's AdamW per tensor instead of the fused optimiser)
 //   Sample        one 16-step DDPM sampling at batch 1 (denoising passes on nn::FastDenoiser)
 //   ...Torch      the same on torch's operators (the path before FastDenoiser, for the ratio)
 //   ExpectedLoss  one expected loss at N_b = 512
@@ -46,8 +47,9 @@ const ChunkDataset& bench_data() {
   return d;
 }
 
-void TrainStep(benchmark::State& state, const PolicyConfig& config, bool torch_mish) {
+void TrainStep(benchmark::State& state, const PolicyConfig& config, bool torch_mish, bool torch_adamw = false) {
   nn::set_fused_mish(!torch_mish);
+  set_fused_optimizer(!torch_adamw);
   DiffusionPolicy policy(config, 0);
   TrainConfig t;
   t.batch_size = 256;
@@ -56,6 +58,7 @@ void TrainStep(benchmark::State& state, const PolicyConfig& config, bool torch_m
   trainer.step();  // warm-up: allocation and oneDNN setup
   for (auto _ : state) benchmark::DoNotOptimize(trainer.step());
   nn::set_fused_mish(true);
+  set_fused_optimizer(true);
 }
 
 void Sample(benchmark::State& state, const PolicyConfig& config, bool torch_denoise) {
@@ -149,6 +152,7 @@ const PolicyConfig kCpuDefault = bench_config(UnetConfig{}.down_dims, UnetConfig
 
 BENCHMARK_CAPTURE(TrainStep, 64_128_256, kReference, false)->Name("BM_TrainStep_64_128_256")->Unit(benchmark::kMillisecond);
 BENCHMARK_CAPTURE(TrainStep, 64_128_256, kReference, true)->Name("BM_TrainStepTorchMish_64_128_256")->Unit(benchmark::kMillisecond);
+BENCHMARK_CAPTURE(TrainStep, 64_128_256, kReference, false, true)->Name("BM_TrainStepTorchAdamW_64_128_256")->Unit(benchmark::kMillisecond);
 BENCHMARK_CAPTURE(Sample, 64_128_256, kReference, false)->Name("BM_Sample_64_128_256")->Unit(benchmark::kMillisecond);
 BENCHMARK_CAPTURE(Sample, 64_128_256, kReference, true)->Name("BM_SampleTorch_64_128_256")->Unit(benchmark::kMillisecond);
 BENCHMARK_CAPTURE(ExpectedLoss, 64_128_256, kReference)->Name("BM_ExpectedLoss_64_128_256")->Unit(benchmark::kMillisecond);
@@ -156,6 +160,7 @@ BENCHMARK_CAPTURE(Decision, 64_128_256, kReference, false)->Name("BM_Decision_64
 BENCHMARK_CAPTURE(Decision, 64_128_256, kReference, true)->Name("BM_DecisionTorch_64_128_256")->Unit(benchmark::kMillisecond);
 BENCHMARK_CAPTURE(TrainStep, 32_64_128, kCpuDefault, false)->Name("BM_TrainStep_32_64_128")->Unit(benchmark::kMillisecond);
 BENCHMARK_CAPTURE(TrainStep, 32_64_128, kCpuDefault, true)->Name("BM_TrainStepTorchMish_32_64_128")->Unit(benchmark::kMillisecond);
+BENCHMARK_CAPTURE(TrainStep, 32_64_128, kCpuDefault, false, true)->Name("BM_TrainStepTorchAdamW_32_64_128")->Unit(benchmark::kMillisecond);
 BENCHMARK_CAPTURE(Sample, 32_64_128, kCpuDefault, false)->Name("BM_Sample_32_64_128")->Unit(benchmark::kMillisecond);
 BENCHMARK_CAPTURE(Sample, 32_64_128, kCpuDefault, true)->Name("BM_SampleTorch_32_64_128")->Unit(benchmark::kMillisecond);
 BENCHMARK_CAPTURE(ExpectedLoss, 32_64_128, kCpuDefault)->Name("BM_ExpectedLoss_32_64_128")->Unit(benchmark::kMillisecond);
