@@ -6,6 +6,8 @@
 # Usage: results/bc_curves/run.sh [RUN...]   (from the repository root; default: every run below)
 # Runs made before an observation change (stack n60_6k_obs31_unpinned, n60_16k_obs31; push
 # n100_12k_cw with 20 values) are kept as history; their commands cannot be replayed on today's tasks.
+# plug/n100_16k_detour was stopped after its 8000-step curve point (0 of 30 both at 4000 and 8000, every
+# rollout at the receptacle but not inserted) to run the same with relative TCP targets instead.
 set -euo pipefail
 cd "$(dirname "$0")/../.."
 bin=${DD_BIN:-build/app/diffdagger}
