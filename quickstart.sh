@@ -16,7 +16,7 @@ JOBS=${JOBS:-2}
 
 PACKAGES=(
   build-essential cmake ninja-build pkg-config git
-  libtorch-dev libopenblas0-openmp libblas-dev libeigen3-dev
+  libtorch-dev libopenblas0-openmp libblas-dev libdnnl-dev libeigen3-dev
   libmujoco-dev libqhull-dev libbox2d-dev libopencv-dev libhdf5-dev
   libegl-dev libgl-dev libgles-dev libegl-mesa0 libgl1-mesa-dri libglfw3-dev libimgui-dev libstb-dev
   libyaml-cpp-dev libcli11-dev libspdlog-dev libfmt-dev nlohmann-json3-dev
