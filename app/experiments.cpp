@@ -438,7 +438,7 @@ int write_learning_curves(const std::string& dir) {
     for (const auto& [step, success] : r.curve) s.x.push_back(step), s.y.push_back(success);
     by_steps.series.push_back(std::move(s));
   }
-  ui::write_png(dir + "/success_vs_demos.png", ui::hstack({ui::draw_lines(by_demos)}, fmt::format("{} runs; rollouts per point in curves.csv", runs.size())));
+  ui::write_png(dir + "/success_vs_demos.png", ui::hstack({ui::draw_lines(by_demos)}, fmt::format("{} run{}; rollouts per point in curves.csv", runs.size(), runs.size() == 1 ? "" : "s")));
   if (!by_steps.series.empty()) ui::write_png(dir + "/success_vs_steps.png", ui::hstack({ui::draw_lines(by_steps)}));
   return static_cast<int>(runs.size());
 }

@@ -138,7 +138,10 @@ Image draw_lines(const LinePanel& p) {
   if (!std::isfinite(x0)) x0 = 0, x1 = 1, y0 = 0, y1 = 1;
   if (std::isfinite(p.y_min)) y0 = p.y_min;
   if (std::isfinite(p.y_max)) y1 = p.y_max;
-  if (!(x1 > x0)) x1 = x0 + 1;
+  if (!(x1 > x0)) {  // one x value (e.g. one demonstration count): centre it in a readable span
+    const double half = std::max(1.0, std::abs(x0) / 2);
+    x0 -= half, x1 += half;
+  }
   if (!(y1 > y0)) y1 = y0 + 1;
   const double xstep = nice_step(x1 - x0, 6), ystep = nice_step(y1 - y0, 5);
   x0 = std::floor(x0 / xstep) * xstep, x1 = std::ceil(x1 / xstep) * xstep;
