@@ -63,7 +63,7 @@ Command add_curves(CLI::App& app) {
   cmd->add_option("dir", *dir, "folder whose subfolders are train --out folders")->required();
   return [dir] {
     const int n = write_learning_curves(*dir);
-    fmt::print("{} runs: {}/curves.csv, {}/success_vs_demos.png, {}/success_vs_steps.png\n", n, *dir, *dir, *dir);
+    fmt::print("{} run{}: {}/curves.csv, {}/success_vs_demos.png, {}/success_vs_steps.png\n", n, n == 1 ? "" : "s", *dir, *dir, *dir);
     return 0;
   };
 }
