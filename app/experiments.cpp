@@ -10,6 +10,7 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <optional>
 #include <sstream>
 #include <numeric>
 #include <map>
@@ -481,9 +482,14 @@ std::string csv_num(double v) { return std::isfinite(v) ? fmt::format("{:.3f}", 
 
 void run_eval(const ExperimentConfig& config, const EvalOptions& o) {
   config.validate();
-  make_dirs(o.out);
-  write_text(o.out + "/config.json", to_json_text(config) + "\n");
-  const auto t_start = std::chrono::steady_clock::now();
+  make_dirs(o.out + "/cells");
+  // Every finished cell (RQ1, or RQ2 and RQ3, of one method and seed) is a file in out/cells; a
+  // stopped evaluation rerun with the same config skips them, losing at most the cell in progress.
+  const std::string config_text = to_json_text(config) + "\n";
+  if (fs::exists(o.out + "/config.json") && read_text(o.out + "/config.json") != config_text && !fs::is_empty(o.out + "/cells"))
+    throw Error(o.out + "/config.json: finished cells of another config are in " + o.out +
+                "/cells; remove the folder or choose another --out");
+  write_text(o.out + "/config.json", config_text);
   struct Row {
     std::vector<double> tpr, tnr, f1, acc, rq1_success, success;
     std::vector<double> train, threshold, inference, risk_data;        // mean over a run's iterations
@@ -495,6 +501,30 @@ void run_eval(const ExperimentConfig& config, const EvalOptions& o) {
   const DaggerConfig& d = config.dagger;
   const RolloutSpec spec = RolloutSpec::of(d);
   const bool bc_scaled = !config.train.from_scratch;
+  const auto t_start = std::chrono::steady_clock::now();
+  int skipped = 0;  // cells read from out/cells
+
+  // A cell's file, if it was finished with this many rollouts per measurement (else an Error).
+  auto finished = [&](const std::string& path) -> std::optional<nlohmann::json> {
+    if (!fs::exists(path)) return std::nullopt;
+    nlohmann::json j;
+    try {
+      j = nlohmann::json::parse(read_text(path));
+    } catch (const nlohmann::json::exception& e) {
+      throw Error(path + ": not a finished cell (" + std::string(e.what()) + "); remove it to run the cell again");
+    }
+    if (j.value("episodes", -1) != o.episodes)
+      throw Error(path + ": finished with " + std::to_string(j.value("episodes", -1)) + " rollouts per measurement (field 'episodes'), this run asks for " +
+                  std::to_string(o.episodes));
+    fmt::print(stderr, "{}: finished, skipped\n", path);
+    ++skipped;
+    return j;
+  };
+  auto save_cell = [&](const std::string& path, nlohmann::json j) {
+    j["episodes"] = o.episodes;
+    write_text(path + ".tmp", j.dump(2) + "\n");
+    fs::rename(path + ".tmp", path);
+  };
 
   for (int s = 0; s < o.seeds; ++s) {
     ExperimentConfig c = config;
@@ -502,61 +532,86 @@ void run_eval(const ExperimentConfig& config, const EvalOptions& o) {
     const uint64_t eval_seed = 900000 + 1000 * static_cast<uint64_t>(s);
     for (const std::string& name : o.methods) {
       Row& row = rows[name];
+      const std::string cell = o.out + "/cells/" + name + "_seed" + std::to_string(s);
       // RQ1: a policy trained on N_D demonstrations, rolled out without intervention.
       if (name != "bc") {
-        auto m = make_method(name, c.policy, c.method, c.dagger.seed);
-        const auto demos = collect_demos(c.task, c.expert, c.rq1_demos, c.dagger.seed);
-        {
-          ProgressBar bar(fmt::format("[seed {}] RQ1 {:8} train", s, name), "loss");
-          m->update(demos, {}, rq1_training(c), bar.fn());
+        auto j = finished(cell + "_rq1.json");
+        if (!j) {
+          auto m = make_method(name, c.policy, c.method, c.dagger.seed);
+          const auto demos = collect_demos(c.task, c.expert, c.rq1_demos, c.dagger.seed);
+          {
+            ProgressBar bar(fmt::format("[seed {}] RQ1 {:8} train", s, name), "loss");
+            m->update(demos, {}, rq1_training(c), bar.fn());
+          }
+          double risk_data_s = 0;
+          if (name == "thrifty") {
+            // The critic learns from robot rollouts too: roll out, then refit the critic alone (the
+            // policies keep the budget every method gets). Those rollouts are Thrifty's extra cost.
+            std::vector<RecordedEpisode> robot;
+            const auto t = std::chrono::steady_clock::now();
+            evaluate_rollouts(*env, *m, std::max(5, o.episodes / 5), spec, eval_seed + 500, {}, &robot);
+            risk_data_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count();
+            risk_data_s += m->refit_risk(demos, robot);
+          }
+          std::vector<RolloutResult> results;
+          {
+            ProgressBar bar(fmt::format("[seed {}] RQ1 {:8} rollouts", s, name), "success");
+            results = evaluate_rollouts(*env, *m, o.episodes, spec, eval_seed, bar.fn());
+          }
+          const FailurePrediction p = failure_prediction(results);
+          j = nlohmann::json{{"tpr", p.tpr}, {"tnr", p.tnr}, {"f1", p.f1}, {"acc", p.accuracy}, {"tp", p.tp}, {"fp", p.fp},
+                             {"tn", p.tn}, {"fn", p.fn}, {"success", success_rate(results)}, {"risk_data_s", risk_data_s}};
+          save_cell(cell + "_rq1.json", *j);
         }
-        double risk_data_s = 0;
-        if (name == "thrifty") {
-          // The critic learns from robot rollouts too: roll out, then refit the critic alone (the
-          // policies keep the budget every method gets). Those rollouts are Thrifty's extra cost.
-          std::vector<RecordedEpisode> robot;
-          const auto t = std::chrono::steady_clock::now();
-          evaluate_rollouts(*env, *m, std::max(5, o.episodes / 5), spec, eval_seed + 500, {}, &robot);
-          risk_data_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count();
-          risk_data_s += m->refit_risk(demos, robot);
-        }
-        if (name == "thrifty") row.risk_data.push_back(risk_data_s);
-        std::vector<RolloutResult> results;
-        {
-          ProgressBar bar(fmt::format("[seed {}] RQ1 {:8} rollouts", s, name), "success");
-          results = evaluate_rollouts(*env, *m, o.episodes, spec, eval_seed, bar.fn());
-        }
-        const FailurePrediction p = failure_prediction(results);
-        row.tpr.push_back(p.tpr);
-        row.tnr.push_back(p.tnr);
-        row.f1.push_back(p.f1);
-        row.acc.push_back(p.accuracy);
-        row.tp += p.tp, row.fp += p.fp, row.tn += p.tn, row.fn += p.fn;
-        row.rq1_success.push_back(success_rate(results));
+        // undefined rates (NaN) are written as null
+        auto rate = [&](const char* k) { return (*j)[k].is_number() ? (*j)[k].get<double>() : NAN; };
+        row.tpr.push_back(rate("tpr"));
+        row.tnr.push_back(rate("tnr"));
+        row.f1.push_back(rate("f1"));
+        row.acc.push_back(rate("acc"));
+        row.tp += (*j)["tp"].get<int>(), row.fp += (*j)["fp"].get<int>(), row.tn += (*j)["tn"].get<int>(), row.fn += (*j)["fn"].get<int>();
+        row.rq1_success.push_back((*j)["success"].get<double>());
+        if (name == "thrifty") row.risk_data.push_back((*j)["risk_data_s"].get<double>());
       }
       // RQ2 and RQ3: interactive learning to N_f, then rollouts of the final policy.
-      DaggerRunOptions ro;
-      ro.method = name;
-      ro.out = o.out + "/runs/" + name + "_seed" + std::to_string(s);
-      ro.quiet = true;
-      fs::remove_all(ro.out);
-      std::unique_ptr<Method> trained;
-      fmt::print(stderr, "[seed {}] RQ2 {:8} interactive learning to {} demonstrations...\n", s, name, d.final_demos);
-      const DaggerRunResult run = run_dagger(c, ro, &trained);
-      std::vector<RolloutResult> results;
-      {
-        ProgressBar bar(fmt::format("[seed {}] RQ2 {:8} rollouts", s, name), "success");
-        results = evaluate_rollouts(*env, *trained, o.episodes, spec, eval_seed + 50000, bar.fn());
+      auto j = finished(cell + "_rq2.json");
+      if (!j) {
+        DaggerRunOptions ro;
+        ro.method = name;
+        ro.out = o.out + "/runs/" + name + "_seed" + std::to_string(s);
+        ro.quiet = true;
+        fs::remove_all(ro.out);
+        std::unique_ptr<Method> trained;
+        fmt::print(stderr, "[seed {}] RQ2 {:8} interactive learning to {} demonstrations...\n", s, name, d.final_demos);
+        const DaggerRunResult run = run_dagger(c, ro, &trained);
+        std::vector<RolloutResult> results;
+        {
+          ProgressBar bar(fmt::format("[seed {}] RQ2 {:8} rollouts", s, name), "success");
+          results = evaluate_rollouts(*env, *trained, o.episodes, spec, eval_seed + 50000, bar.fn());
+        }
+        auto last_or_zero = [](const std::vector<double>& v) { return v.empty() ? 0.0 : v.back(); };
+        j = nlohmann::json{{"success", success_rate(results)},
+                           {"train_s", mean(run.iteration_train_s)},
+                           {"threshold_s", mean(run.iteration_threshold_s)},
+                           {"inference_s", run.iteration_inference_s.empty() ? 0.0 : mean(run.iteration_inference_s)},
+                           {"last_train_s", last_or_zero(run.iteration_train_s)},
+                           {"last_threshold_s", last_or_zero(run.iteration_threshold_s)},
+                           {"last_inference_s", last_or_zero(run.iteration_inference_s)},
+                           {"interventions", run.interventions},
+                           {"queries", run.queries},
+                           {"timeouts", run.timeouts},
+                           {"dagger_episodes", run.episodes}};
+        save_cell(cell + "_rq2.json", *j);
+        fmt::print(stderr, "[seed {}] {:8} success {:.2f}; {} interventions ({} queries, {} time-outs) in {} episodes\n", s, name,
+                   (*j)["success"].get<double>(), run.interventions, run.queries, run.timeouts, run.episodes);
       }
-      row.success.push_back(success_rate(results));
-      row.train.push_back(mean(run.iteration_train_s));
-      row.threshold.push_back(mean(run.iteration_threshold_s));
-      row.inference.push_back(run.iteration_inference_s.empty() ? 0.0 : mean(run.iteration_inference_s));
-      row.last_train.push_back(run.iteration_train_s.back());
-      row.last_threshold.push_back(run.iteration_threshold_s.back());
-      row.last_inference.push_back(run.iteration_inference_s.empty() ? 0.0 : run.iteration_inference_s.back());
-      fmt::print(stderr, "[seed {}] {:8} success {:.2f}; {} interventions ({} queries, {} time-outs) in {} episodes\n", s, name,
-                 row.success.back(), run.interventions, run.queries, run.timeouts, run.episodes);
+      row.success.push_back((*j)["success"].get<double>());
+      row.train.push_back((*j)["train_s"].get<double>());
+      row.threshold.push_back((*j)["threshold_s"].get<double>());
+      row.inference.push_back((*j)["inference_s"].get<double>());
+      row.last_train.push_back((*j)["last_train_s"].get<double>());
+      row.last_threshold.push_back((*j)["last_threshold_s"].get<double>());
+      row.last_inference.push_back((*j)["last_inference_s"].get<double>());
     }
   }
 
@@ -673,8 +728,9 @@ void run_eval(const ExperimentConfig& config, const EvalOptions& o) {
   }
   md += fmt::format("\nInference is the time spent deciding during the robot's rollouts between two updates. "
                     "Plots: `rq1_failure_prediction.png`, `rq2_success.png`, `rq3_wallclock.png`. "
-                    "Each run's data set, checkpoints and query log are under `runs/`. Took {}.\n",
-                    format_duration(seconds));
+                    "Each run's data set, checkpoints and query log are under `runs/`, each finished cell's numbers under `cells/`. "
+                    "Took {}{}.\n",
+                    format_duration(seconds), skipped > 0 ? fmt::format(" (and {} cells finished by an earlier, stopped run)", skipped) : "");
   write_text(o.out + "/report.md", md);
   fmt::print("{}", md);
 }

@@ -96,6 +96,51 @@ TEST(DaggerNav2d, QuickEvaluationWritesEveryFile) {
   fs::remove_all(e.out);
 }
 
+TEST(DaggerNav2d, AStoppedEvaluationRerunsOnlyTheUnfinishedCells) {
+  ExperimentConfig c = quick_config();
+  EvalOptions e;
+  e.apply_quick(c);
+  e.episodes = 4;
+  e.methods = {"diff", "bc"};
+  c.method.members = 2;
+  c.train.batch_size = 32;
+  c.train.steps = 30;
+  e.out = temp_dir("eval_cells");
+  run_eval(c, e);
+  const auto text = [](const std::string& path) {
+    std::ifstream f(path);
+    std::stringstream ss;
+    ss << f.rdbuf();
+    return ss.str();
+  };
+  const std::string rq1 = text(e.out + "/rq1.csv"), rq2 = text(e.out + "/rq2.csv");
+  for (const char* cell : {"diff_seed0_rq1.json", "diff_seed0_rq2.json", "bc_seed0_rq2.json"})
+    EXPECT_TRUE(fs::exists(e.out + "/cells/" + cell)) << cell;
+
+  // as if stopped during BC's interactive learning: its cell reruns, Diff-DAgger's are read back
+  fs::remove(e.out + "/cells/bc_seed0_rq2.json");
+  const auto diff_cell_time = fs::last_write_time(e.out + "/cells/diff_seed0_rq2.json");
+  run_eval(c, e);
+  EXPECT_TRUE(fs::exists(e.out + "/cells/bc_seed0_rq2.json"));
+  EXPECT_EQ(fs::last_write_time(e.out + "/cells/diff_seed0_rq2.json"), diff_cell_time) << "a finished cell ran again";
+  EXPECT_EQ(text(e.out + "/rq1.csv"), rq1);
+  EXPECT_EQ(text(e.out + "/rq2.csv"), rq2) << "the rerun cell gave another result";
+  EXPECT_NE(text(e.out + "/report.md").find("cells finished by an earlier"), std::string::npos);
+
+  // cells of another rollout count, or of another config, are refused naming the file
+  e.episodes = 6;
+  try {
+    run_eval(c, e);
+    ADD_FAILURE() << "cells of 4 rollouts were read as 6";
+  } catch (const Error& err) {
+    EXPECT_NE(std::string(err.what()).find("diff_seed0_rq1.json"), std::string::npos) << err.what();
+  }
+  e.episodes = 4;
+  c.train.steps = 31;
+  EXPECT_THROW(run_eval(c, e), Error);
+  fs::remove_all(e.out);
+}
+
 TEST(Train, BehaviourCloningWritesAPolicyACurveAndAnOutcomeBreakdown) {
   ExperimentConfig c = preset("nav2d");
   c.train.steps = 30;
