@@ -58,8 +58,8 @@ void read_into(const std::string& path, Contents& c, DiffusionPolicy::Impl& impl
     c.archive.read("obs_offset", oo);
     c.archive.read("act_scale", as);
     c.archive.read("act_offset", ao);
-    if (os.numel() != c.config.obs_dim || oo.numel() != c.config.obs_dim || as.numel() != c.config.action_dim ||
-        ao.numel() != c.config.action_dim)
+    if (os.numel() != c.config.obs_dim || oo.numel() != c.config.obs_dim || as.numel() != c.config.action_norm_dim() ||
+        ao.numel() != c.config.action_norm_dim())
       throw Error(path + ": normalizer sizes do not match the stored config (fields obs_scale/act_scale)");
     torch::serialize::InputArchive model, ema;
     c.archive.read("model", model);

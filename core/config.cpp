@@ -160,13 +160,15 @@ void to_json(nlohmann::json& j, const PolicyConfig& c) {
   j = json{{"obs_dim", c.obs_dim},         {"action_dim", c.action_dim},
            {"horizon", c.horizon},         {"action_steps", c.action_steps},
            {"unet", c.unet},               {"scheduler", c.scheduler},
-           {"relative_actions", c.relative_actions}};
+           {"relative_actions", c.relative_actions}, {"action_norm_per_step", c.action_norm_per_step}};
 }
 
 void from_json(const nlohmann::json& j, PolicyConfig& c) {
-  require_known_keys(j, {"obs_dim", "action_dim", "horizon", "action_steps", "unet", "scheduler", "relative_actions"},
+  require_known_keys(j, {"obs_dim", "action_dim", "horizon", "action_steps", "unet", "scheduler", "relative_actions",
+                         "action_norm_per_step"},
                      "policy");
   read(j, "relative_actions", c.relative_actions, "policy");
+  read(j, "action_norm_per_step", c.action_norm_per_step, "policy");
   read(j, "obs_dim", c.obs_dim, "policy");
   read(j, "action_dim", c.action_dim, "policy");
   read(j, "horizon", c.horizon, "policy");

@@ -56,6 +56,12 @@ struct PolicyConfig {
   /// chunk, and generated chunks get obs[o] added back (e.g. TCP targets relative to the TCP position
   /// observed when the chunk was planned). Empty: absolute actions.
   std::vector<std::array<int, 2>> relative_actions;
+  /// Normalise every (chunk step, action feature) on its own range instead of each action feature
+  /// over all steps: the first steps of a relative chunk span centimetres where the last span the
+  /// workspace, so they get a finer resolution.
+  bool action_norm_per_step = false;
+  /// Values in the action normaliser: action_dim, or horizon * action_dim with action_norm_per_step.
+  int action_norm_dim() const { return action_norm_per_step ? horizon * action_dim : action_dim; }
 
   /// Throws Error naming the field if the shapes are inconsistent.
   void validate() const;

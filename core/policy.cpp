@@ -37,7 +37,7 @@ std::string join(const std::vector<int>& v) {
 torch::Generator make_generator(uint64_t seed) { return at::detail::createCPUGenerator(seed); }
 
 DiffusionPolicy::Impl::Impl(const PolicyConfig& c, uint64_t seed)
-    : config(c), scheduler(c.scheduler), obs_norm(c.obs_dim), act_norm(c.action_dim) {
+    : config(c), scheduler(c.scheduler), obs_norm(c.obs_dim), act_norm(c.action_norm_dim()) {
   torch::manual_seed(seed);  // parameter initialisation draws from the global generator
   model = nn::ConditionalUnet1D(c.action_dim, c.obs_dim, c.unet);
   ema = nn::ConditionalUnet1D(c.action_dim, c.obs_dim, c.unet);
@@ -73,7 +73,9 @@ Mat DiffusionPolicy::Impl::relative_chunks(const Mat& obs, const Mat& chunk_rows
 }
 
 Mat DiffusionPolicy::Impl::raw_chunk(const torch::Tensor& chunk, const Eigen::Ref<const Vec>& obs) const {
-  Mat m = act_norm.unnormalize(to_mat(chunk.reshape({config.horizon, config.action_dim})));
+  Mat m = config.action_norm_per_step
+              ? Mat(Eigen::Map<const Mat>(act_norm.unnormalize(to_mat(chunk.reshape({1, -1}))).data(), config.horizon, config.action_dim))
+              : act_norm.unnormalize(to_mat(chunk.reshape({config.horizon, config.action_dim})));
   for (const auto& [a, o] : config.relative_actions) m.col(a).array() += obs[o];
   return m;
 }
@@ -84,6 +86,7 @@ torch::Tensor DiffusionPolicy::Impl::chunk_tensor(const Mat& obs, const Mat& raw
     throw Error("policy: action chunk has " + std::to_string(raw_rows.cols()) + " values, expected horizon*action_dim = " +
                 std::to_string(T * A));
   const Mat chunk_rows = relative_chunks(obs, raw_rows);
+  if (config.action_norm_per_step) return to_tensor(act_norm.normalize(chunk_rows)).view({chunk_rows.rows(), T, A});
   const Mat steps = Eigen::Map<const Mat>(chunk_rows.data(), chunk_rows.rows() * T, A);
   return to_tensor(act_norm.normalize(steps)).view({chunk_rows.rows(), T, A});
 }
@@ -187,9 +190,9 @@ const Normalizer& DiffusionPolicy::obs_normalizer() const { return impl_->obs_no
 const Normalizer& DiffusionPolicy::action_normalizer() const { return impl_->act_norm; }
 
 void DiffusionPolicy::set_normalizers(Normalizer obs, Normalizer action) {
-  if (obs.dim() != impl_->config.obs_dim || action.dim() != impl_->config.action_dim)
+  if (obs.dim() != impl_->config.obs_dim || action.dim() != impl_->config.action_norm_dim())
     throw Error("policy: normalizer sizes (" + std::to_string(obs.dim()) + ", " + std::to_string(action.dim()) +
-                ") do not match obs_dim and action_dim");
+                ") do not match obs_dim and action_dim (horizon * action_dim with action_norm_per_step)");
   impl_->obs_norm = std::move(obs);
   impl_->act_norm = std::move(action);
 }

@@ -109,7 +109,9 @@ Trainer::Trainer(DiffusionPolicy& policy, const ChunkDataset& data, const TrainC
   if (config.fit_normalizer) {
     // the actions as the model sees them (relative to their observations where the config says so)
     const Mat chunks = policy.impl().relative_chunks(data.obs, data.chunks);
-    const Mat actions = Eigen::Map<const Mat>(chunks.data(), chunks.rows() * data.horizon, data.action_dim);
+    const Mat actions = policy.config().action_norm_per_step
+                            ? chunks
+                            : Mat(Eigen::Map<const Mat>(chunks.data(), chunks.rows() * data.horizon, data.action_dim));
     policy.set_normalizers(Normalizer::fit(data.obs), Normalizer::fit(actions, Normalizer::Constants::kPin));
   }
   TrainConfig resolved = config;

@@ -173,19 +173,29 @@ TEST(RelativeActions, ChunksAreLearnedInTheObservationsFrame) {
   t.batch_size = 64;
   t.lr = 1e-3;
   t.warmup_steps = 10;
-  double error[2] = {0, 0};
-  for (int relative : {0, 1}) {
+  double error[3] = {0, 0, 0};
+  for (int variant : {0, 1, 2}) {  // absolute; relative; relative, normalised per chunk step
     PolicyConfig c = fakes::tiny_policy();
-    if (relative) c.relative_actions = {{0, 0}};
-    DiffusionPolicy policy(c, 5);
-    train(policy, data, t);
+    if (variant > 0) c.relative_actions = {{0, 0}};
+    c.action_norm_per_step = variant == 2;
+    auto policy = std::make_unique<DiffusionPolicy>(c, 5);
+    train(*policy, data, t);
+    if (variant == 2) {  // the per-step normaliser (horizon * action_dim values) goes through a checkpoint
+      EXPECT_EQ(policy->action_normalizer().dim(), 8 * 2);
+      const std::string path = testing::TempDir() + "/relative_per_step.pt";
+      policy->save(path);
+      policy = DiffusionPolicy::from_checkpoint(path);
+      EXPECT_TRUE(policy->config().action_norm_per_step);
+    }
     for (int i = 0; i < 10; ++i) {
       const Vec obs = Eigen::Vector2f(-0.9f + 0.2f * i, 0.3f);
-      const Mat chunk = policy.sample(obs, 40 + i);
-      error[relative] += (chunk.col(0).array() - (obs[0] + 0.25f)).abs().mean() / 10;
+      const Mat chunk = policy->sample(obs, 40 + i);
+      ASSERT_EQ(chunk.rows(), 8);
+      error[variant] += (chunk.col(0).array() - (obs[0] + 0.25f)).abs().mean() / 10;
     }
   }
   EXPECT_LT(error[1], 1e-3) << "every step of a relative chunk is its observation plus the offset";
+  EXPECT_LT(error[2], 1e-3) << "the same, normalised per step";
   EXPECT_GT(error[0], 10 * error[1]) << "absolute " << error[0] << " relative " << error[1];
 }
 
