@@ -2,9 +2,8 @@
 # The behaviour-cloning runs behind results/bc_curves: one `diffdagger train` per folder, then
 # `diffdagger curves` per task. Resumable: a run whose summary.json exists is skipped, and a stopped run
 # continues from its last resume point (every 1000 steps and after each curve point). Each run takes
-# one thread (set DD_THREADS to change it). On this 2-core machine, one run at a time with DD_THREADS=2
-# is faster overall: plugging trained at 0.055 s a step that way, against 0.24 s a step for each of
-# two 1-thread runs side by side (about 2x the throughput).
+# one thread (set DD_THREADS to change it); on 2 cores run two of these scripts' runs side by side at most
+# (plugging: 0.22 s a step alone with 2 threads, 0.24 s a step each with two 1-thread runs side by side).
 # Usage: results/bc_curves/run.sh [RUN...]   (from the repository root; default: every run below)
 # Runs made before an observation change (stack n60_6k_obs31_unpinned, n60_16k_obs31; push
 # n100_12k_cw with 20 values) are kept as history; their commands cannot be replayed on today's tasks.
