@@ -63,6 +63,11 @@ class Expert {
   virtual void reset(uint64_t seed) = 0;
   /// The expert's action for the env's current state.
   virtual Vec act(const Env& env) = 0;
+
+  /// Noise injected while recording demonstrations (DART, Laskey et al. 2017): expert_episode executes
+  /// act() plus Gaussian noise of this standard deviation per action component and records act()
+  /// itself, so the data shows the expert correcting small deviations. Zero: no noise.
+  double execution_noise = 0;
 };
 
 }  // namespace dd

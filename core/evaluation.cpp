@@ -2,6 +2,7 @@
 
 #include <chrono>
 #include <cmath>
+#include <random>
 
 #include "core/gate.h"
 
@@ -67,11 +68,19 @@ RecordedEpisode expert_episode(Env& env, Expert& expert, uint64_t seed) {
   env.reset(seed);
   expert.reset(seed);
   std::vector<Vec> obs, act;
+  std::mt19937_64 rng(seed ^ 0xDA27'0000'0000'0001ull);
+  std::normal_distribution<float> noise(0.f, static_cast<float>(expert.execution_noise));
   bool done = false;
   while (!done) {
     obs.push_back(env.observation());
     act.push_back(expert.act(env));
-    done = env.step(act.back()).done;
+    if (expert.execution_noise <= 0) {
+      done = env.step(act.back()).done;
+    } else {
+      Vec executed = act.back();
+      for (Eigen::Index i = 0; i < executed.size(); ++i) executed[i] += noise(rng);
+      done = env.step(executed).done;
+    }
   }
   RecordedEpisode ep;
   ep.obs = stack_rows(obs, env.obs_dim());

@@ -186,6 +186,10 @@ ExperimentConfig preset(const std::string& name) {
   } else if (name == "plug") {
     c = table3(name, "plug", 37, 10, 64, 8, 64, 20, 100, 8, 0.99, 2, 500);
     c.expert = "planner";
+    // CPU budget: stacking's, 730 steps at batch 128 per update (BC on N_f = 100: 11 updates' worth,
+    // 8030 steps); results/bc_curves/plug has what it reaches
+    c.train.steps = 730;
+    c.train.batch_size = 128;
     c.rq1_demos = 100;
   } else {
     throw Error("unknown preset '" + name + "' (known: nav2d, nav2d_random, stack, push_1expert, push_2experts, plug)");

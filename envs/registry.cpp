@@ -15,6 +15,11 @@ namespace {
 // "detour" experts: the planner, first going to a seeded point 1-2 cm beside its pre-grasp and hover
 // points, so that the demonstrations show corrections onto them (PickPlaceExpert::detour).
 constexpr double kExpertDetour = 0.02;
+// "+noise" pushing experts: demonstrations recorded with DART-style execution noise (Expert::execution_noise),
+// in joint-position change per step [rad]: an eighth of the largest step (PushEnv::max_joint_step, 0.08).
+// Pushing policies drift off the demonstrations' arm poses (stick tilted, arm folded) and the clean
+// demonstrations never show the way back.
+constexpr double kPushExpertNoise = 0.01;
 }  // namespace
 
 std::vector<std::string> task_names() { return {"nav2d", "nav2d_random", "stack", "push", "plug"}; }
@@ -43,11 +48,16 @@ std::unique_ptr<Expert> make_expert(const std::string& task, const std::string& 
     return expert;
   }
   if (task == "push") {
+    if (mode.size() > 6 && mode.compare(mode.size() - 6, 6, "+noise") == 0) {
+      auto expert = make_expert(task, mode.substr(0, mode.size() - 6));
+      expert->execution_noise = kPushExpertNoise;
+      return expert;
+    }
     if (mode == "cw") return std::make_unique<mj::PushExpert>(mj::PushExpert::Mode::kClockwise);
     if (mode == "ccw") return std::make_unique<mj::PushExpert>(mj::PushExpert::Mode::kCounterClockwise);
     if (mode == "mixed") return std::make_unique<mj::PushExpert>(mj::PushExpert::Mode::kMixed);
     if (mode == "alternate") return std::make_unique<mj::PushExpert>(mj::PushExpert::Mode::kAlternate);
-    throw Error("push expert: unknown mode '" + mode + "' (known: cw, ccw, mixed, alternate)");
+    throw Error("push expert: unknown mode '" + mode + "' (known: cw, ccw, mixed, alternate; each with +noise)");
   }
   if (task == "plug") {
     if (mode != "mixed" && mode != "planner" && mode != "detour")

@@ -11,6 +11,7 @@
 
 #include "core/config.h"
 #include "core/evaluation.h"
+#include "envs/mujoco/mj_util.h"
 #include "envs/mujoco/planner.h"
 #include "envs/mujoco/stack.h"
 #include "envs/mujoco/stack_expert.h"
@@ -238,6 +239,44 @@ TEST(Mujoco, PlugExpertTakesOverMidEpisode) {
   EXPECT_GE(recoveries(env, expert, 500, 30, 500, random_pose), 3);
 }
 
+// Poses the charger upright at the socket's yaw, `offset` off the socket's centre along the socket's
+// x axis, its prong's tip `depth` below the receptacle's top, and asks MuJoCo's collision detection
+// whether the prong then cuts into the receptacle.
+bool prong_cuts_the_receptacle(double chamfer, double offset, double depth) {
+  PlugConfig config;
+  config.chamfer = chamfer;
+  PlugEnv env(config);
+  env.reset(3);
+  mjData* d = env.mutable_data();
+  const mjModel* m = env.model();
+  const double yaw = env.socket_yaw(), top = env.seated_height() - 0.015;  // handle half-height 15 mm
+  const Eigen::Vector3d at = env.socket_pos() + Eigen::Vector3d(std::cos(yaw), std::sin(yaw), 0) * offset +
+                             Eigen::Vector3d(0, 0, env.seated_height() + 0.030 - depth);  // prong 30 mm long
+  set_free_pose(m, d, mj_name2id(m, mjOBJ_BODY, "charger"), at, Eigen::Quaterniond(Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ())));
+  mj_forward(m, d);
+  const int prong = mj_name2id(m, mjOBJ_GEOM, "prong"), receptacle = mj_name2id(m, mjOBJ_BODY, "receptacle");
+  EXPECT_NEAR(env.charger_pos().z() - 0.030 - 0.015, top - depth, 1e-9);
+  for (int i = 0; i < d->ncon; ++i) {
+    const mjContact& c = d->contact[i];
+    const bool pair = (c.geom1 == prong && m->geom_bodyid[c.geom2] == receptacle) || (c.geom2 == prong && m->geom_bodyid[c.geom1] == receptacle);
+    if (pair && c.dist < -1e-4) return true;
+  }
+  return false;
+}
+
+TEST(Mujoco, PlugChamferWidensTheSocketsMouthAndKeepsItsClearance) {
+  // 3 mm off centre (three times the 1 mm clearance, about the learned policies' median error in
+  // results/bc_curves/plug), 2 mm into the socket: the prong sits on the wall's top without a lead-in
+  // and inside the 5 mm chamfer with one
+  EXPECT_TRUE(prong_cuts_the_receptacle(0.0, 0.003, 0.002));
+  EXPECT_FALSE(prong_cuts_the_receptacle(0.005, 0.003, 0.002));
+  // below the chamfer the socket is as tight as before: 3 mm off cuts the wall, centred does not
+  EXPECT_TRUE(prong_cuts_the_receptacle(0.005, 0.003, 0.010));
+  EXPECT_FALSE(prong_cuts_the_receptacle(0.005, 0.0, 0.010));
+  EXPECT_FALSE(prong_cuts_the_receptacle(0.005, 0.0009, 0.025));
+  EXPECT_GT(PlugConfig{}.chamfer, 0.0);  // the task's default has the lead-in
+}
+
 TEST(Mujoco, PlugIsDeterministic) { expect_same_trajectory<PlugEnv, PlugExpert>(9, 80); }
 
 TEST(Mujoco, PushModelLoadsWithTheDeclaredSizes) {
@@ -290,6 +329,35 @@ TEST(Mujoco, PushExpertsTurnTheBlockTheirOwnWayHome) {
     std::printf("push expert %s: %d/%d, mean %.1f steps\n", expert.name().c_str(), ok, n, ok ? double(steps) / ok : 0.0);
     EXPECT_GE(ok, 4) << expert.name();
   }
+}
+
+TEST(Mujoco, PushExpertWithNoiseRecordsItsCleanActionsNotTheExecutedOnes) {
+  PushEnv env;
+  const auto clean = make_expert("push", "cw"), noisy = make_expert("push", "cw+noise");
+  EXPECT_EQ(noisy->name(), "push_cw+noise");
+  EXPECT_GT(noisy->execution_noise, 0.0);
+  EXPECT_THROW(make_expert("push", "sideways+noise"), Error);
+  const uint64_t seed = 410;
+  const RecordedEpisode a = expert_episode(env, *clean, seed), b = expert_episode(env, *noisy, seed);
+  const RecordedEpisode b2 = expert_episode(env, *noisy, seed);
+  EXPECT_TRUE(a.success);
+  EXPECT_TRUE(b.success);
+  EXPECT_TRUE(b.obs.isApprox(b2.obs)) << "the noise is seeded by the episode";
+  ASSERT_GT(std::min(a.steps(), b.steps()), 20);
+  EXPECT_GT((a.obs.topRows(20) - b.obs.topRows(20)).cwiseAbs().maxCoeff(), 1e-3) << "the noise moved the arm";
+  // replaying the recorded actions open loop reproduces a clean episode's states, but not a noisy
+  // one's: what was recorded is the expert's action, not the executed one
+  auto replay_error = [&](const RecordedEpisode& e) {
+    env.reset(seed);
+    double err = 0;
+    for (Eigen::Index t = 0; t < 20; ++t) {
+      err = std::max(err, double((env.observation() - Vec(e.obs.row(t).transpose())).cwiseAbs().maxCoeff()));
+      env.step(e.actions.row(t).transpose());
+    }
+    return err;
+  };
+  EXPECT_LT(replay_error(a), 1e-5);
+  EXPECT_GT(replay_error(b), 1e-3);
 }
 
 TEST(Mujoco, PushExpertTakesOverMidEpisode) {

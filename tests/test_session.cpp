@@ -456,8 +456,11 @@ TEST(Session, GatingEveryStepScoresEachStepButExecutesWholeChunks) {
   s2.add_observer(rec2.fn());
   run_to_end(s2);
   ASSERT_EQ(rec2.count(EventKind::kQuery), 1);
-  for (const auto& e : rec2.events)
-    if (e.kind == EventKind::kQuery) EXPECT_EQ(e.step, 2);  // after the 3rd decision, at the 3rd step
+  for (const auto& e : rec2.events) {
+    if (e.kind == EventKind::kQuery) {
+      EXPECT_EQ(e.step, 2);  // after the 3rd decision, at the 3rd step
+    }
+  }
 }
 
 }  // namespace dd

@@ -11,16 +11,39 @@ constexpr double kWall = 0.035;       // socket depth and receptacle height [m]
 constexpr double kHandleHalfZ = 0.015;
 constexpr double kProngHalfZ = 0.015;
 constexpr double kDockWall = 0.02;
+constexpr double kEighthTurn = M_PI / 4;  // the scene compiles angles in radians
 
-// Four walls of height h around a square hole of half-width `hole`, walls `thick` thick.
-std::string walled_hole(double hole, double thick, double h, const char* material) {
-  const double o = hole + thick, m = hole + thick / 2;
+// Four walls of height h around a square hole of half-width `hole`, walls `thick` thick. With a
+// chamfer c > 0 the top c of each wall steps back by c and a 45-degree slope (a box turned on its edge)
+// fills the step, so the hole widens to hole + c at the top: a lead-in funnel.
+std::string walled_hole(double hole, double thick, double h, const char* material, double c = 0) {
   std::string out;
-  for (const auto& [x, y, hx, hy] :
-       std::vector<std::array<double, 4>>{{0, m, o, thick / 2}, {0, -m, o, thick / 2}, {m, 0, thick / 2, hole}, {-m, 0, thick / 2, hole}})
-    out += fmt::format(R"(      <geom type="box" pos="{} {} {}" size="{} {} {}" material="{}"/>
+  auto box = [&](double x, double y, double z, double hx, double hy, double hz, double pitch, double roll) {
+    out += fmt::format(R"(      <geom type="box" pos="{} {} {}" size="{} {} {}" euler="{} {} 0" material="{}"/>
 )",
-                       x, y, h / 2, hx, hy, h / 2, material);
+                       x, y, z, hx, hy, hz, roll, pitch, material);
+  };
+  // one layer of walls with inner face at half-width `in` and outer face at hole + thick, z in [z0, z1]
+  auto layer = [&](double in, double z0, double z1) {
+    const double o = hole + thick, t = (o - in) / 2, m = in + t, zc = (z0 + z1) / 2, hz = (z1 - z0) / 2;
+    box(0, m, zc, o, t, hz, 0, 0);
+    box(0, -m, zc, o, t, hz, 0, 0);
+    box(m, 0, zc, t, in, hz, 0, 0);
+    box(-m, 0, zc, t, in, hz, 0, 0);
+  };
+  if (c <= 0) {
+    layer(hole, 0, h);
+    return out;
+  }
+  layer(hole, 0, h - c);
+  layer(hole + c, h - c, h);
+  // a square rod of half-side c / sqrt(2) turned 45 degrees about its length, centred c out and c
+  // down from the hole's top edge: its upper inner face runs from (hole, h - c) to (hole + c, h)
+  const double a = c / std::sqrt(2.0), r = hole + c, len = hole + thick;
+  box(0, r, h - c, len, a, a, 0, kEighthTurn);
+  box(0, -r, h - c, len, a, a, 0, kEighthTurn);
+  box(r, 0, h - c, a, len, a, kEighthTurn, 0);
+  box(-r, 0, h - c, a, len, a, kEighthTurn, 0);
   return out;
 }
 
@@ -40,7 +63,7 @@ std::string plug_xml(const PlugConfig& c) {
       <geom name="prong" type="box" pos="0 0 -{pz2}" size="{ph} {ph} {pz}" material="red" mass="0.01" condim="4" friction="0.3 0.005 0.0001"/>
     </body>
 )",
-                                         fmt::arg("receptacle", walled_hole(c.socket_half, 0.03, kWall, "blue")),
+                                         fmt::arg("receptacle", walled_hole(c.socket_half, 0.03, kWall, "blue", c.chamfer)),
                                          fmt::arg("dock", walled_hole(0.014, 0.012, kDockWall, "dark")), fmt::arg("hh", c.handle_half),
                                          fmt::arg("hz", kHandleHalfZ), fmt::arg("pz2", kHandleHalfZ + kProngHalfZ),
                                          fmt::arg("ph", c.prong_half), fmt::arg("pz", kProngHalfZ));

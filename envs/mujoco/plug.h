@@ -1,6 +1,9 @@
 // Plugging: a charger stands in a loose dock; the arm picks it up, turns it to the receptacle's yaw
 // and inserts its square prong (18 mm) into the receptacle's square socket (20 mm: 1 mm clearance a
-// side). T_L = 500 steps at 20 Hz.
+// side). The socket's mouth has a 5 mm lead-in chamfer, as real sockets do: BC policies bring the
+// prong down a few millimetres off centre (median 3.7 mm, results/bc_curves/plug), which landed it on
+// the wall's top; the same 8000-step policy inserted in 12% of rollouts without the lead-in and 73%
+// with it. Below the chamfer the clearance is still 1 mm. T_L = 500 steps at 20 Hz.
 //   observation (37): joints (7), TCP position (3), TCP 6-D rotation (6), gripper opening (1),
 //                     charger position (3) and quaternion (4), receptacle position (3) and quaternion (4),
 //                     charger minus TCP (3), socket minus charger (3)
@@ -17,6 +20,7 @@ struct PlugConfig {
   double prong_half = 0.009;     // prong half-width [m]
   double socket_half = 0.010;    // socket half-width [m]
   double handle_half = 0.02;     // handle half-width (grasped) [m]
+  double chamfer = 0.005;        // lead-in at the socket's mouth: the hole widens by this much a side at the top [m]
   int time_limit = 500;
   int camera_size = 96;
 };

@@ -9,6 +9,8 @@
 # n100_12k_cw with 20 values) are kept as history; their commands cannot be replayed on today's tasks.
 # plug/n100_16k_detour was stopped after its 8000-step curve point (0 of 30 both at 4000 and 8000, every
 # rollout at the receptacle but not inserted) to run the same with relative TCP targets instead.
+# The relative runs were stopped at 8000 steps too (0 of 30 each). The plug runs before n100_chamfer5
+# ran on a socket without a lead-in chamfer (PlugConfig::chamfer = 0).
 set -euo pipefail
 cd "$(dirname "$0")/../.."
 bin=${DD_BIN:-build/app/diffdagger}
@@ -22,6 +24,8 @@ declare -A runs=(
   [plug/n100_16k_detour]="--task plug --expert detour --demos 100 --steps 16000 --batch 128 --eval-every 4000 --curve-eval 30 --eval 100"
   [plug/n100_16k_detour_relative]="--task plug --config results/bc_curves/plug_relative.yaml --expert detour --demos 100 --steps 16000 --batch 128 --eval-every 4000 --curve-eval 30 --eval 100"
   [plug/n100_16k_detour_relative_per_step]="--task plug --config results/bc_curves/plug_relative_per_step.yaml --expert detour --demos 100 --steps 16000 --batch 128 --eval-every 4000 --curve-eval 30 --eval 100"
+  [plug/n100_chamfer5]="--task plug --demos 100 --eval-every 4000 --curve-eval 30 --eval 100"
+  [push_1expert/n100_16k_obs24_noise]="--task push_1expert --expert cw+noise --demos 100 --steps 16000 --batch 128 --eval-every 8000 --curve-eval 30 --eval 100"
   [push_1expert/n100_32k_obs24_ccw]="--task push_1expert --expert ccw --demos 100 --steps 32000 --batch 128 --eval-every 8000 --curve-eval 30 --eval 100"
 )
 selected=("$@")
