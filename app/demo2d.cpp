@@ -13,6 +13,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "core/text_file.h"
 #include "core/chunks.h"
 #include "core/config.h"
 #include "core/ensemble.h"
@@ -188,12 +189,6 @@ std::vector<ui::Overlay> scene_overlays(const Nav2dConfig& cfg, const Demos& dem
   goal.label = "goal";
   o.push_back(goal);
   return o;
-}
-
-void write_text(const std::string& path, const std::string& text) {
-  std::ofstream f(path);
-  f << text;
-  if (!f) throw Error(path + ": could not write");
 }
 
 }  // namespace

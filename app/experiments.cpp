@@ -16,6 +16,7 @@
 #include <map>
 #include <nlohmann/json.hpp>
 
+#include "core/text_file.h"
 #include "core/dataset.h"
 #include "core/evaluation.h"
 #include "core/event_log.h"
@@ -35,21 +36,6 @@ void make_dirs(const std::string& dir) {
   std::error_code ec;
   fs::create_directories(dir, ec);
   if (ec) throw Error(dir + ": could not create the folder: " + ec.message());
-}
-
-std::string read_text(const std::string& path) {
-  std::ifstream f(path);
-  if (!f) throw Error(path + ": could not open");
-  std::ostringstream text;
-  text << f.rdbuf();
-  return text.str();
-}
-
-void write_text(const std::string& path, const std::string& text) {
-  std::ofstream f(path);
-  f << text;
-  f.flush();
-  if (!f) throw Error(path + ": could not write (disk full or no permission?)");
 }
 
 std::pair<double, double> mean_std(const std::vector<double>& v) {
@@ -307,6 +293,7 @@ TrainRunResult run_train(const ExperimentConfig& config, const TrainOptions& o) 
                  nlohmann::json{{"step", step}, {"train_s", result.train_s}, {"eval_s", result.eval_s}}.dump() + "\n");
     };
     ProgressBar bar(fmt::format("train {} on {} demonstrations ({} pairs)", config.task, result.demos, result.pairs), "loss");
+    bar.resume_from(trainer.steps_done());
     auto t = std::chrono::steady_clock::now();
     auto count_train_time = [&] {
       const auto now = std::chrono::steady_clock::now();
@@ -522,8 +509,7 @@ void run_eval(const ExperimentConfig& config, const EvalOptions& o) {
   };
   auto save_cell = [&](const std::string& path, nlohmann::json j) {
     j["episodes"] = o.episodes;
-    write_text(path + ".tmp", j.dump(2) + "\n");
-    fs::rename(path + ".tmp", path);
+    write_text(path, j.dump(2) + "\n");
   };
 
   for (int s = 0; s < o.seeds; ++s) {

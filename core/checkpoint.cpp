@@ -8,6 +8,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "core/nn/archive_io.h"
 #include "core/nn/policy_impl.h"
 
 namespace dd {
@@ -25,8 +26,6 @@ Vec tensor_vec(const torch::Tensor& t) {
   return Eigen::Map<const Vec>(c.data_ptr<float>(), c.numel());
 }
 
-// First line of a torch error: the rest is a C++ backtrace nobody wants to read.
-std::string first_line(const std::string& s) { return s.substr(0, s.find('\n')); }
 
 struct Contents {
   PolicyConfig config;
@@ -91,20 +90,7 @@ void DiffusionPolicy::save(const std::string& path) const {
   archive.write("model", model);
   archive.write("ema", ema);
 
-  const std::string tmp = path + ".tmp";
-  try {
-    archive.save_to(tmp);
-  } catch (const c10::Error& e) {
-    std::error_code ec;
-    std::filesystem::remove(tmp, ec);
-    throw Error(path + ": could not write checkpoint: " + first_line(e.what()));
-  }
-  std::error_code ec;
-  std::filesystem::rename(tmp, path, ec);
-  if (ec) {
-    std::filesystem::remove(tmp, ec);
-    throw Error(path + ": could not move checkpoint into place: " + ec.message());
-  }
+  save_archive_atomically(archive, path, "checkpoint");
 }
 
 void DiffusionPolicy::load(const std::string& path) {

@@ -17,6 +17,14 @@ namespace {
 // small enough to stay in cache-friendly sizes.
 constexpr int kRowsPerPass = 2048;
 
+// Calls fn(start, len) over the pairs [0, n) in blocks of about kRowsPerPass rows, `rows_per_pair`
+// rows to a pair.
+template <class Fn>
+void for_each_block(int64_t n, int rows_per_pair, Fn&& fn) {
+  const int64_t per_pass = std::max<int64_t>(1, kRowsPerPass / rows_per_pair);
+  for (int64_t start = 0; start < n; start += per_pass) fn(start, std::min<int64_t>(per_pass, n - start));
+}
+
 torch::Tensor to_tensor(const Mat& m) {
   return torch::from_blob(const_cast<float*>(m.data()), {m.rows(), m.cols()}, torch::kFloat32).clone();
 }
@@ -233,16 +241,14 @@ std::vector<float> DiffusionPolicy::expected_losses(const ChunkDataset& data, ui
   torch::Generator gen = make_generator(seed);
   const torch::Tensor obs = impl_->obs_tensor(data.obs);
   const torch::Tensor chunks = impl_->chunk_tensor(data.obs, data.chunks);
-  const int64_t per_pass = std::max<int64_t>(1, kRowsPerPass / n_samples);
   std::vector<float> out;
   out.reserve(static_cast<size_t>(data.size()));
-  for (int64_t start = 0; start < data.size(); start += per_pass) {
-    const int64_t len = std::min<int64_t>(per_pass, data.size() - start);
+  for_each_block(data.size(), n_samples, [&](int64_t start, int64_t len) {
     const torch::Tensor l = impl_->expected_loss(obs.narrow(0, start, len), chunks.narrow(0, start, len), n_samples, gen);
     const float* p = l.data_ptr<float>();
     out.insert(out.end(), p, p + len);
     if (progress) progress(static_cast<int>(start + len), data.size(), out.back());
-  }
+  });
   return out;
 }
 
@@ -267,9 +273,7 @@ LossQuantile DiffusionPolicy::loss_quantile(const ChunkDataset& data, double alp
   const auto n = static_cast<size_t>(data.size());
   const int64_t k = m / T;  // rows per timestep
   std::vector<float> screened(n), bound(n);  // screening mean, and mean + z standard errors
-  const int64_t per_pass = std::max<int64_t>(1, kRowsPerPass / m);
-  for (int64_t start = 0; start < data.size(); start += per_pass) {
-    const int64_t len = std::min<int64_t>(per_pass, data.size() - start);
+  for_each_block(data.size(), m, [&](int64_t start, int64_t len) {
     // (len, m) -> (len, k, T): row j * T + t has timestep t
     const torch::Tensor rows = impl_->row_losses(obs.narrow(0, start, len), chunks.narrow(0, start, len), m, gen).view({len, k, T});
     const torch::Tensor mean = rows.mean({1, 2});
@@ -279,7 +283,7 @@ LossQuantile DiffusionPolicy::loss_quantile(const ChunkDataset& data, double alp
     std::copy_n(mean.data_ptr<float>(), len, screened.begin() + start);
     std::copy_n(hi.data_ptr<float>(), len, bound.begin() + start);
     if (progress) progress(static_cast<int>(start + len), 2 * data.size(), screened[static_cast<size_t>(start + len - 1)]);
-  }
+  });
   // Refine every pair that could lie above the threshold with the full n_samples rows; repeat while
   // the threshold moves below a pair's screening bound. The threshold is then always a refined
   // value, and every pair left unrefined lies below it (by kScreenZ standard errors), so the order
@@ -294,9 +298,7 @@ LossQuantile DiffusionPolicy::loss_quantile(const ChunkDataset& data, double alp
     if (todo.empty()) break;
     const torch::Tensor idx = torch::tensor(todo, torch::kInt64);
     const torch::Tensor o = obs.index_select(0, idx), c = chunks.index_select(0, idx);
-    const int64_t full_pass = std::max<int64_t>(1, kRowsPerPass / n_samples);
-    for (int64_t start = 0; start < idx.size(0); start += full_pass) {
-      const int64_t len = std::min<int64_t>(full_pass, idx.size(0) - start);
+    for_each_block(idx.size(0), n_samples, [&](int64_t start, int64_t len) {
       const torch::Tensor l = impl_->expected_loss(o.narrow(0, start, len), c.narrow(0, start, len), n_samples, gen);
       const float* lp = l.data_ptr<float>();
       for (int64_t j = 0; j < len; ++j) {
@@ -306,7 +308,7 @@ LossQuantile DiffusionPolicy::loss_quantile(const ChunkDataset& data, double alp
       }
       q.refined += static_cast<int>(len);
       if (progress) progress(std::min(2 * data.size() - 1, data.size() + q.refined), 2 * data.size(), value[static_cast<size_t>(todo[static_cast<size_t>(start)])]);
-    }
+    });
     q.threshold = quantile(value, alpha);
   }
   if (progress) progress(2 * data.size(), 2 * data.size(), q.threshold);

@@ -20,6 +20,10 @@ std::string format_duration(double seconds) {
   return buf;
 }
 
+double time_left(double elapsed, int base, int done, int total) {
+  return done > base ? elapsed * (total - done) / (done - base) : NAN;
+}
+
 ProgressBar::ProgressBar(std::string label, std::string value_name, std::FILE* out)
     : label_(std::move(label)),
       value_name_(std::move(value_name)),
@@ -56,7 +60,7 @@ void ProgressBar::draw(bool final) {
   const double elapsed =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count();
   const double frac = total_ > 0 ? static_cast<double>(done_) / total_ : 0.0;
-  const double left = frac > 0 ? elapsed * (1.0 - frac) / frac : NAN;
+  const double left = time_left(elapsed, base_, done_, total_);
   const std::string value = value_name_.empty() ? "" : "  " + value_name_ + " " + [&] {
     char b[32];
     std::snprintf(b, sizeof b, "%.4g", value_);

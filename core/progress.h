@@ -27,6 +27,9 @@ class ProgressBar {
   void finish();
   /// A ProgressFn that forwards to this bar.
   ProgressFn fn();
+  /// Work resumed with `done` units already done before this bar started: the time left is
+  /// estimated from the rate since then, not from `done` units in no time.
+  void resume_from(int done) { base_ = done; }
 
  private:
   void draw(bool final);
@@ -35,10 +38,14 @@ class ProgressBar {
   std::FILE* out_;
   bool tty_;
   bool finished_ = false;
-  int done_ = 0, total_ = 0;
+  int done_ = 0, total_ = 0, base_ = 0;
   double value_ = 0.0;
   std::chrono::steady_clock::time_point start_, last_draw_;
 };
+
+/// Seconds left at the rate seen so far: `elapsed` seconds went to the units from `base` (done before
+/// the bar started) to `done`, of `total`. NaN before the first fresh unit.
+double time_left(double elapsed, int base, int done, int total);
 
 /// Formats seconds as "1m05s" / "12.3s".
 std::string format_duration(double seconds);

@@ -8,6 +8,7 @@
 #include <ATen/Parallel.h>
 
 #include "core/chunks.h"
+#include "core/nn/archive_io.h"
 #include "core/nn/policy_impl.h"
 
 namespace dd {
@@ -179,8 +180,6 @@ float Trainer::step() {
 namespace {
 constexpr const char* kStateFormat = "diffdagger-trainer";
 constexpr int64_t kStateVersion = 1;
-
-std::string first_line(const std::string& s) { return s.substr(0, s.find('\n')); }
 }  // namespace
 
 void Trainer::save_state(const std::string& path) const {
@@ -199,19 +198,7 @@ void Trainer::save_state(const std::string& path) const {
     s.opt.save(optimizer);
     archive.write("optimizer", optimizer);
   }
-  const std::string tmp = path + ".tmp";
-  std::error_code ec;
-  try {
-    archive.save_to(tmp);
-  } catch (const c10::Error& e) {
-    std::filesystem::remove(tmp, ec);
-    throw Error(path + ": could not write the trainer state: " + first_line(e.what()));
-  }
-  std::filesystem::rename(tmp, path, ec);
-  if (ec) {
-    std::filesystem::remove(tmp, ec);
-    throw Error(path + ": could not move the trainer state into place: " + ec.message());
-  }
+  save_archive_atomically(archive, path, "the trainer state");
 }
 
 void Trainer::resume(const std::string& path) {

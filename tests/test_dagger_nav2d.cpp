@@ -141,15 +141,25 @@ TEST(DaggerNav2d, AStoppedEvaluationRerunsOnlyTheUnfinishedCells) {
   fs::remove_all(e.out);
 }
 
+// A quick `train` run on the toy: `steps` steps at batch 32 on 3 demonstrations, 3 rollouts at every
+// curve point (`eval_every` steps) and at the end.
+struct QuickTrain {
+  ExperimentConfig config;
+  TrainOptions options;
+};
+QuickTrain quick_train(int steps, int eval_every) {
+  QuickTrain q{preset("nav2d"), {}};
+  q.config.train.steps = steps;
+  q.config.train.batch_size = 32;
+  q.options.demos = 3;
+  q.options.eval_episodes = 3;
+  q.options.eval_every = eval_every;
+  q.options.quiet = true;
+  return q;
+}
+
 TEST(Train, BehaviourCloningWritesAPolicyACurveAndAnOutcomeBreakdown) {
-  ExperimentConfig c = preset("nav2d");
-  c.train.steps = 30;
-  c.train.batch_size = 32;
-  TrainOptions o;
-  o.demos = 3;
-  o.eval_episodes = 3;
-  o.eval_every = 15;
-  o.quiet = true;
+  auto [c, o] = quick_train(30, 15);
   const std::string root = temp_dir("train");
   o.out = root + "/n3";
   const TrainRunResult r = run_train(c, o);
@@ -190,14 +200,7 @@ TEST(Train, BehaviourCloningWritesAPolicyACurveAndAnOutcomeBreakdown) {
 }
 
 TEST(Train, AStoppedRunContinuesFromItsResumePoint) {
-  ExperimentConfig c = preset("nav2d");
-  c.train.steps = 40;
-  c.train.batch_size = 32;
-  TrainOptions o;
-  o.demos = 3;
-  o.eval_episodes = 3;
-  o.eval_every = 20;
-  o.quiet = true;
+  auto [c, o] = quick_train(40, 20);
   const std::string root = temp_dir("resume");
   o.out = root + "/straight";
   const TrainRunResult straight = run_train(c, o);

@@ -123,12 +123,18 @@ TEST(FastPaths, ScalarSchedulerStepMatchesTheTensorFormulas) {
   }
 }
 
-TEST(FastPaths, EnsembleMembersSampledSideBySideGiveTheSameChunks) {
+// A small policy config: 5 observation and 3 action features, chunks of 16, the named U-Net.
+PolicyConfig small_config(const std::string& unet) {
   PolicyConfig c;
   c.obs_dim = 5;
   c.action_dim = 3;
   c.horizon = 16;
-  c.unet = unet_preset("cpu");
+  c.unet = unet_preset(unet);
+  return c;
+}
+
+TEST(FastPaths, EnsembleMembersSampledSideBySideGiveTheSameChunks) {
+  const PolicyConfig c = small_config("cpu");
   PolicyEnsemble ensemble(c, 3, 4);
   Mat obs = Mat::Random(6, 5);
   ensemble.set_parallel_members(false);
@@ -145,11 +151,7 @@ TEST(FastPaths, EnsembleMembersSampledSideBySideGiveTheSameChunks) {
 }
 
 TEST(FastPaths, FusedOptimizerTrainsLikeTorchsAdamW) {
-  PolicyConfig c;
-  c.obs_dim = 5;
-  c.action_dim = 3;
-  c.horizon = 16;
-  c.unet = unet_preset("tiny");
+  const PolicyConfig c = small_config("tiny");
   const ChunkDataset data = ChunkDataset::from_episodes(bimodal_episodes(10, 20, 5, 3, 2), 16);
   TrainConfig t;
   t.steps = 40;

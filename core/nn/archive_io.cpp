@@ -1,0 +1,27 @@
+#include "core/nn/archive_io.h"
+
+#include <filesystem>
+
+#include "core/config.h"
+
+namespace dd {
+
+std::string first_line(const std::string& s) { return s.substr(0, s.find('\n')); }
+
+void save_archive_atomically(torch::serialize::OutputArchive& archive, const std::string& path, const std::string& what) {
+  const std::string tmp = path + ".tmp";
+  std::error_code ec;
+  try {
+    archive.save_to(tmp);
+  } catch (const c10::Error& e) {
+    std::filesystem::remove(tmp, ec);
+    throw Error(path + ": could not write " + what + ": " + first_line(e.what()));
+  }
+  std::filesystem::rename(tmp, path, ec);
+  if (ec) {
+    std::filesystem::remove(tmp, ec);
+    throw Error(path + ": could not move " + what + " into place: " + ec.message());
+  }
+}
+
+}  // namespace dd

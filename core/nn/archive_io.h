@@ -1,0 +1,18 @@
+// Saving libtorch archives (policy checkpoints, trainer states) the same careful way. Includes torch:
+// only for the .cpp files that already do.
+#pragma once
+
+#include <string>
+
+#include <torch/torch.h>
+
+namespace dd {
+
+/// The first line of a torch error: the rest is a C++ backtrace nobody wants to read.
+std::string first_line(const std::string& s);
+
+/// Writes `archive` to path + ".tmp" and renames it to `path`, so a failed save (a full disk) never
+/// clobbers a good file. Throws Error "path: could not write <what>: ..." on failure.
+void save_archive_atomically(torch::serialize::OutputArchive& archive, const std::string& path, const std::string& what);
+
+}  // namespace dd

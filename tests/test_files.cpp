@@ -1,0 +1,53 @@
+// Small shared utilities: whole-file text I/O that never leaves a half-written file, and the
+// progress bar's time-left estimate after a resume.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <filesystem>
+
+#include "core/config.h"
+#include "core/progress.h"
+#include "core/text_file.h"
+
+namespace dd {
+namespace fs = std::filesystem;
+
+TEST(TextFile, WritesReadsAndReplaces) {
+  const fs::path dir = fs::temp_directory_path() / "dd_text_file";
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  const std::string path = (dir / "a.json").string();
+  write_text(path, "first\n");
+  write_text(path, "second\n");
+  EXPECT_EQ(read_text(path), "second\n");
+  EXPECT_FALSE(fs::exists(path + ".tmp"));
+  fs::remove_all(dir);
+}
+
+TEST(TextFile, AFailedWriteLeavesTheOldFileAndNamesIt) {
+  const fs::path dir = fs::temp_directory_path() / "dd_text_file_fail";
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  const std::string path = (dir / "cell.json").string();
+  write_text(path, "good\n");
+  fs::create_directories(path + ".tmp");  // the temporary file cannot be created
+  try {
+    write_text(path, "new\n");
+    FAIL() << "expected an error";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find(path), std::string::npos) << e.what();
+  }
+  EXPECT_EQ(read_text(path), "good\n");
+  EXPECT_THROW(read_text((dir / "missing.json").string()), Error);
+  fs::remove_all(dir);
+}
+
+TEST(ProgressBar, TimeLeftCountsOnlyTheUnitsDoneSinceTheBarStarted) {
+  // 10 units in 20 s, 80 to go: 160 s
+  EXPECT_DOUBLE_EQ(time_left(20, 0, 10, 90), 160);
+  // resumed at 8000 of 16000, 100 fresh units in 20 s: 7900 to go at 5 a second, not 16 times faster
+  EXPECT_DOUBLE_EQ(time_left(20, 8000, 8100, 16000), 1580);
+  EXPECT_TRUE(std::isnan(time_left(5, 8000, 8000, 16000)));
+}
+
+}  // namespace dd
