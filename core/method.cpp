@@ -20,6 +20,7 @@ class DiffMethod : public Method {
  public:
   DiffMethod(const PolicyConfig& pc, const MethodConfig& mc, uint64_t seed) : policy_(pc, seed), config_(mc), seed_(seed) {
     policy_.set_score_weights(mc.score_raw_weights ? ScoreWeights::kRaw : ScoreWeights::kEma);
+    policy_.set_inference_precision(inference_precision_from(mc.precision));
   }
   std::string name() const override { return "diff"; }
 
@@ -67,7 +68,9 @@ class DiffMethod : public Method {
 class EnsembleMethod : public Method {
  public:
   EnsembleMethod(const PolicyConfig& pc, const MethodConfig& mc, uint64_t seed)
-      : ensemble_(pc, mc.members, seed), config_(mc), seed_(seed) {}
+      : ensemble_(pc, mc.members, seed), config_(mc), seed_(seed) {
+    for (int i = 0; i < ensemble_.size(); ++i) ensemble_.member(i).set_inference_precision(inference_precision_from(mc.precision));
+  }
   std::string name() const override { return "ensemble"; }
 
   UpdateReport update(const std::vector<Episode>& expert, const std::vector<RecordedEpisode>&, const TrainConfig& train_config,
@@ -196,7 +199,9 @@ class UngatedMethod : public Method {
 
 class BcMethod : public UngatedMethod {
  public:
-  BcMethod(const PolicyConfig& pc, uint64_t seed) : policy_(pc, seed), seed_(seed) {}
+  BcMethod(const PolicyConfig& pc, const MethodConfig& mc, uint64_t seed) : policy_(pc, seed), seed_(seed) {
+    policy_.set_inference_precision(inference_precision_from(mc.precision));
+  }
   std::string name() const override { return "bc"; }
 
   UpdateReport update(const std::vector<Episode>& expert, const std::vector<RecordedEpisode>&, const TrainConfig& train_config,
@@ -244,7 +249,7 @@ std::unique_ptr<Method> make_method(const std::string& name, const PolicyConfig&
   if (name == "diff") return std::make_unique<DiffMethod>(policy, config, seed);
   if (name == "ensemble") return std::make_unique<EnsembleMethod>(policy, config, seed);
   if (name == "thrifty") return std::make_unique<ThriftyMethod>(policy, config, seed);
-  if (name == "bc") return std::make_unique<BcMethod>(policy, seed);
+  if (name == "bc") return std::make_unique<BcMethod>(policy, config, seed);
   throw Error("unknown method '" + name + "' (known: diff, ensemble, thrifty, bc)");
 }
 

@@ -8,6 +8,7 @@
 #include "core/chunks.h"
 #include "core/gate.h"
 #include "core/nn/policy_impl.h"
+#include "core/nn/bf16_gemm.h"
 #include "core/nn/fast_unet.h"
 
 namespace dd {
@@ -123,8 +124,10 @@ torch::Tensor DiffusionPolicy::Impl::row_losses(const torch::Tensor& obs, const 
   const torch::Tensor x0 = chunks.repeat_interleave(n, 0);
   const torch::Tensor eps = torch::randn(x0.sizes(), gen, x0.options());
   const torch::Tensor x_t = scheduler.add_noise(x0, eps, t_rows);
-  // torch's pass: at N_b rows both paths are sgemm-bound and equally fast (bench_policy)
-  const torch::Tensor pred = net->denoise(x_t, row_films);
+  // float32: torch's pass (at N_b rows both paths are sgemm-bound and equally fast, bench_policy);
+  // bfloat16: FastDenoiser's
+  const torch::Tensor pred = precision == InferencePrecision::kFloat32 ? net->denoise(x_t, row_films)
+                                                                       : nn::FastDenoiser(*net, fast_precision()).denoise(x_t, row_films);
   return (pred - scheduler.target(x0, eps, t_rows)).pow(2).reshape({B, n, -1}).mean(2);
 }
 
@@ -147,7 +150,7 @@ torch::Tensor DiffusionPolicy::Impl::sample(const torch::Tensor& obs, torch::Gen
   }
   // The loop on raw floats: the denoising pass on FastDenoiser, the scheduler's scalar step, and the
   // same generator draws in the same order as the tensor path.
-  const nn::FastDenoiser fast(*ema);
+  const nn::FastDenoiser fast(*ema, fast_precision());
   const size_t chunk = static_cast<size_t>(config.horizon) * config.action_dim;
   std::vector<torch::Tensor> fc;
   for (const auto& f : films) fc.push_back(f.contiguous());
@@ -223,10 +226,28 @@ void DiffusionPolicy::reinitialize(uint64_t seed) {
   fresh->obs_norm = impl_->obs_norm;
   fresh->act_norm = impl_->act_norm;
   fresh->score_weights = impl_->score_weights;
+  fresh->precision = impl_->precision;
+  fresh->torch_denoise = impl_->torch_denoise;
   impl_ = std::move(fresh);
 }
 
 void DiffusionPolicy::set_score_weights(ScoreWeights w) { impl_->score_weights = w; }
+
+InferencePrecision inference_precision_from(const std::string& name) {
+  if (name == "float32") return InferencePrecision::kFloat32;
+  if (name == "bfloat16") return InferencePrecision::kBFloat16;
+  throw Error("inference precision: '" + name + "' is not float32 or bfloat16");
+}
+
+std::string to_string(InferencePrecision p) { return p == InferencePrecision::kBFloat16 ? "bfloat16" : "float32"; }
+
+void DiffusionPolicy::set_inference_precision(InferencePrecision p) {
+  if (p == InferencePrecision::kBFloat16 && !nn::have_bf16_gemm())
+    throw Error("inference precision bfloat16: this build has no oneDNN (install libdnnl-dev and rebuild)");
+  impl_->precision = p;
+}
+
+InferencePrecision DiffusionPolicy::inference_precision() const { return impl_->precision; }
 ScoreWeights DiffusionPolicy::score_weights() const { return impl_->score_weights; }
 
 float DiffusionPolicy::expected_loss(const Vec& obs, const Mat& chunk, uint64_t seed, int n_samples) const {

@@ -30,6 +30,13 @@ constexpr int kDefaultLossSamples = 512;
 /// training weights (the authors' released code).
 enum class ScoreWeights { kEma, kRaw };
 
+/// The arithmetic of inference (sampling and expected losses): float32, or bfloat16 products with
+/// float32 accumulation (an option, faster on CPUs with AVX-512 BF16; its agreement with float32 is
+/// measured by tests/bench/precision_agreement). Training is always float32.
+enum class InferencePrecision { kFloat32, kBFloat16 };
+InferencePrecision inference_precision_from(const std::string& name);  // "float32" | "bfloat16"
+std::string to_string(InferencePrecision p);
+
 /// One control decision: the generated chunk and its expected diffusion loss.
 struct Decision {
   Mat chunk;         // T_p x action_dim, raw units
@@ -69,6 +76,10 @@ class DiffusionPolicy {
   /// Which weights expected_loss, expected_losses and decide score with (sampling always uses the EMA).
   void set_score_weights(ScoreWeights w);
   ScoreWeights score_weights() const;
+  /// Inference arithmetic for sample, decide and the expected losses (default float32). bfloat16
+  /// throws Error in a build without oneDNN.
+  void set_inference_precision(InferencePrecision p);
+  InferencePrecision inference_precision() const;
 
   /// Generates one action chunk for `obs` (obs_dim) -> (T_p x action_dim), raw units.
   Mat sample(const Vec& obs, uint64_t seed) const;

@@ -76,7 +76,7 @@ void apply_dagger(const json& j, DaggerConfig& d) {
 
 void apply_method(const json& j, MethodConfig& m) {
   require_known_keys(j, {"alpha", "members", "loss_samples", "calibration_pairs", "screen_threshold", "score_weights", "risk_quantile",
-                         "critic_steps"},
+                         "critic_steps", "precision"},
                      "method");
   read(j, "alpha", m.alpha, "method");
   read(j, "members", m.members, "method");
@@ -91,12 +91,18 @@ void apply_method(const json& j, MethodConfig& m) {
     if (w != "ema" && w != "raw") throw Error("method.score_weights: '" + w + "' is not one of ema, raw");
     m.score_raw_weights = w == "raw";
   }
+  if (j.contains("precision")) {
+    read(j, "precision", m.precision, "method");
+    if (m.precision != "float32" && m.precision != "bfloat16")
+      throw Error("method.precision: '" + m.precision + "' is not one of float32, bfloat16");
+  }
 }
 
 json method_json(const MethodConfig& m) {
   return json{{"alpha", m.alpha}, {"members", m.members}, {"loss_samples", m.loss_samples},
               {"calibration_pairs", m.calibration_pairs}, {"screen_threshold", m.screen_threshold},
-              {"score_weights", m.score_raw_weights ? "raw" : "ema"}, {"risk_quantile", m.risk_quantile}, {"critic_steps", m.critic.steps}};
+              {"score_weights", m.score_raw_weights ? "raw" : "ema"}, {"risk_quantile", m.risk_quantile}, {"critic_steps", m.critic.steps},
+              {"precision", m.precision}};
 }
 
 json dagger_json(const DaggerConfig& d) {

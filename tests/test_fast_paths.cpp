@@ -3,15 +3,30 @@
 // scalar step against its tensor formulas.
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <numeric>
+
 #include "core/chunks.h"
 #include "core/ensemble.h"
 #include "core/synthetic.h"
 #include "core/trainer.h"
+#include "core/nn/bf16_gemm.h"
 #include "core/nn/fast_unet.h"
 #include "core/nn/mish.h"
 #include "core/nn/policy_impl.h"
 
 namespace dd {
+
+// A small policy config: 5 observation and 3 action features, chunks of 16, the named U-Net.
+PolicyConfig small_config(const std::string& unet) {
+  PolicyConfig c;
+  c.obs_dim = 5;
+  c.action_dim = 3;
+  c.horizon = 16;
+  c.unet = unet_preset(unet);
+  return c;
+}
+
 
 TEST(FastPaths, HoistedConditioningSamplesMatchTheFullForwardPass) {
   for (PredictionType p : {PredictionType::kVelocity, PredictionType::kEpsilon, PredictionType::kSample}) {
@@ -68,6 +83,75 @@ TEST(FastPaths, FastDenoiserMatchesTorchsDenoisingPass) {
   }
 }
 
+// bfloat16 products (the option, not the default): close to float32 at the presets' shapes, and the
+// expected losses of a trained policy keep their order (what the gate's threshold depends on).
+TEST(FastPaths, BFloat16DenoiserStaysCloseToFloat32) {
+  if (!nn::have_bf16_gemm()) GTEST_SKIP() << "built without oneDNN";
+  for (const char* unet : {"cpu", "medium"}) {
+    PolicyConfig c = small_config(unet);
+    c.obs_dim = 24;
+    c.action_dim = 7;
+    c.horizon = 32;
+    DiffusionPolicy policy(c, 5, false);
+    auto& net = *policy.impl().ema;
+    const int64_t B = 40;
+    const torch::Tensor x = torch::randn({B, c.horizon, c.action_dim});
+    const torch::Tensor obs = torch::rand({B, c.obs_dim}) * 2 - 1;
+    torch::NoGradGuard no_grad;
+    const std::vector<torch::Tensor> films = net.film(net.condition(torch::arange(B, torch::kInt64) % 16, obs));
+    const torch::Tensor ref = nn::FastDenoiser(net).denoise(x, films);
+    const torch::Tensor half = nn::FastDenoiser(net, nn::Precision::kBFloat16).denoise(x, films);
+    const double rel = ((half - ref).norm() / ref.norm()).item<double>();
+    EXPECT_LT(rel, 2e-2) << unet;
+    EXPECT_GT(rel, 0.0) << unet << ": the bfloat16 path ran in float32";
+  }
+}
+
+double spearman(const std::vector<float>& a, const std::vector<float>& b) {
+  auto ranks = [](const std::vector<float>& v) {
+    std::vector<int> idx(v.size());
+    std::iota(idx.begin(), idx.end(), 0);
+    std::sort(idx.begin(), idx.end(), [&](int i, int j) { return v[static_cast<size_t>(i)] < v[static_cast<size_t>(j)]; });
+    std::vector<double> r(v.size());
+    for (size_t k = 0; k < idx.size(); ++k) r[static_cast<size_t>(idx[k])] = static_cast<double>(k);
+    return r;
+  };
+  const std::vector<double> ra = ranks(a), rb = ranks(b);
+  const double n = static_cast<double>(a.size()), mean = (n - 1) / 2;
+  double num = 0, da = 0, db = 0;
+  for (size_t i = 0; i < a.size(); ++i) {
+    num += (ra[i] - mean) * (rb[i] - mean);
+    da += (ra[i] - mean) * (ra[i] - mean);
+    db += (rb[i] - mean) * (rb[i] - mean);
+  }
+  return num / std::sqrt(da * db);
+}
+
+TEST(FastPaths, BFloat16ExpectedLossesKeepTheirOrder) {
+  if (!nn::have_bf16_gemm()) GTEST_SKIP() << "built without oneDNN";
+  const PolicyConfig c = small_config("tiny");
+  DiffusionPolicy policy(c, 3, false);
+  const ChunkDataset data = ChunkDataset::from_episodes(bimodal_episodes(8, 20, 5, 3, 2), c.horizon);
+  TrainConfig t;
+  t.steps = 80;
+  t.batch_size = 32;
+  train(policy, data, t);
+  const std::vector<float> f32 = policy.expected_losses(data, 17, 64);
+  policy.set_inference_precision(InferencePrecision::kBFloat16);
+  EXPECT_EQ(policy.inference_precision(), InferencePrecision::kBFloat16);
+  const std::vector<float> bf16 = policy.expected_losses(data, 17, 64);  // the same noise draws
+  ASSERT_EQ(f32.size(), bf16.size());
+  EXPECT_NE(f32, bf16) << "the same numbers: the bfloat16 path did not run";
+  EXPECT_GT(spearman(f32, bf16), 0.95);
+  // sampling runs in bfloat16 too and stays close to the float32 chunk from the same noise
+  const Vec o = data.obs.row(0).transpose();
+  const Mat a = policy.sample(o, 5);
+  policy.set_inference_precision(InferencePrecision::kFloat32);
+  const Mat b = policy.sample(o, 5);
+  EXPECT_LT((a - b).norm() / b.norm(), 5e-2);
+  EXPECT_THROW(inference_precision_from("float16"), Error);
+}
+
 TEST(FastPaths, FusedMishMatchesTorchsForwardAndGradient) {
   // across the exponential's range, and past the cap at 20 where both saturate
   const torch::Tensor base = torch::cat({torch::linspace(-40, 40, 4001), torch::randn({50000}) * 3});
@@ -121,16 +205,6 @@ TEST(FastPaths, ScalarSchedulerStepMatchesTheTensorFormulas) {
       EXPECT_TRUE(torch::allclose(sched.step(out, t, x_t, g), expected, 1e-3, 1e-4)) << to_string(p) << " t " << t;
     }
   }
-}
-
-// A small policy config: 5 observation and 3 action features, chunks of 16, the named U-Net.
-PolicyConfig small_config(const std::string& unet) {
-  PolicyConfig c;
-  c.obs_dim = 5;
-  c.action_dim = 3;
-  c.horizon = 16;
-  c.unet = unet_preset(unet);
-  return c;
 }
 
 TEST(FastPaths, EnsembleMembersSampledSideBySideGiveTheSameChunks) {

@@ -1,5 +1,6 @@
 #include "core/nn/fast_unet.h"
 
+#include "core/nn/bf16_gemm.h"
 #include "core/nn/mish.h"
 
 #include <Eigen/Core>
@@ -58,7 +59,7 @@ FastDenoiser::Res FastDenoiser::res_of(const ResBlockImpl& m) {
   return r;
 }
 
-FastDenoiser::FastDenoiser(const ConditionalUnet1DImpl& net) {
+FastDenoiser::FastDenoiser(const ConditionalUnet1DImpl& net, Precision precision) : precision_(precision) {
   for (const auto& l : net.down_)
     down_.push_back({res_of(*l.first), res_of(*l.second), l.down ? conv_of(*l.down) : Conv{}});
   mid0_ = res_of(*net.mid0_);
@@ -67,13 +68,67 @@ FastDenoiser::FastDenoiser(const ConditionalUnet1DImpl& net) {
   final_block_ = block_of(*net.final_block_);
   final_conv_ = conv_of(*net.final_conv_);
   action_dim_ = final_conv_.out;
+  if (precision_ == Precision::kBFloat16) {
+    if (!have_bf16_gemm()) throw Error("fast denoiser: bfloat16 needs a build with oneDNN (libdnnl-dev)");
+    convert_weights();
+  }
+}
+
+void FastDenoiser::convert_weights() {
+  auto convert = [&](Conv& c, bool transposed) {
+    if (!c.w) return;
+    const int64_t n = static_cast<int64_t>(c.in) * c.out * c.k;
+    std::vector<uint16_t>& w = bf16_.emplace_back(static_cast<size_t>(n));
+    if (!transposed) {
+      to_bf16(c.w, n, w.data());
+    } else {  // (in, out k) -> (out k, in)
+      const int cols = c.out * c.k;
+      std::vector<float> t(static_cast<size_t>(n));
+      for (int i = 0; i < c.in; ++i)
+        for (int j = 0; j < cols; ++j) t[static_cast<size_t>(j) * c.in + i] = c.w[static_cast<size_t>(i) * cols + j];
+      to_bf16(t.data(), n, w.data());
+    }
+    c.w16 = w.data();
+  };
+  auto res = [&](Res& r) {
+    convert(r.b0.conv, false);
+    convert(r.b1.conv, false);
+    convert(r.residual, false);
+  };
+  // Conv::w16 points into bf16_'s elements, whose buffers stay put when bf16_ grows
+  for (Level& l : down_) {
+    res(l.first);
+    res(l.second);
+    convert(l.resample, false);
+  }
+  res(mid0_);
+  res(mid1_);
+  for (Level& l : up_) {
+    res(l.first);
+    res(l.second);
+    convert(l.resample, true);
+  }
+  convert(final_block_.conv, false);
+  convert(final_conv_, false);
+}
+
+void FastDenoiser::product(const Conv& c, bool transposed, int M, int N, int K, const float* B, float* C, bool accumulate) const {
+  if (precision_ == Precision::kFloat32) {
+    cblas_sgemm(kRowMajor, transposed ? kTrans : kNoTrans, kNoTrans, M, N, K, 1.f, c.w, transposed ? M : K, B, N, accumulate ? 1.f : 0.f,
+                C, N);
+    return;
+  }
+  thread_local std::vector<uint16_t> b16;
+  b16.resize(static_cast<size_t>(K) * N);
+  to_bf16(B, static_cast<int64_t>(K) * N, b16.data());
+  gemm_bf16(M, N, K, c.w16, b16.data(), C, accumulate);
 }
 
 // Activations are (C, B T): row c holds channel c of every batch row, each row's T steps contiguous.
 
 // out (C_out, B T_out) = W (C_out, C_in k) x im2col(x) (C_in k, B T_out) + b: torch's (out, in, k)
 // weight is that matrix as stored, with im2col rows ordered (channel, tap).
-FastDenoiser::Act FastDenoiser::conv(const Act& x, const Conv& c) {
+FastDenoiser::Act FastDenoiser::conv(const Act& x, const Conv& c) const {
   const int t_out = (x.t + 2 * c.pad - c.k) / c.stride + 1, n = x.b * t_out;
   Act y{c.out, x.b, t_out, std::vector<float>(static_cast<size_t>(c.out) * n)};
   for (int o = 0; o < c.out; ++o) std::fill_n(y.v.data() + static_cast<size_t>(o) * n, n, c.b[o]);
@@ -93,16 +148,16 @@ FastDenoiser::Act FastDenoiser::conv(const Act& x, const Conv& c) {
         }
     b = cols.data();
   }
-  cblas_sgemm(kRowMajor, kNoTrans, kNoTrans, c.out, n, c.in * c.k, 1.f, c.w, c.in * c.k, b, n, 1.f, y.v.data(), n);
+  product(c, false, c.out, n, c.in * c.k, b, y.v.data(), true);
   return y;
 }
 
 // Y (C_out k, B T) = W^T x with torch's (in, out, k) weight read as an (in, out k) matrix; each input
 // step t then adds tap j of Y into output step t * stride - pad + j of the same batch row.
-FastDenoiser::Act FastDenoiser::conv_transpose(const Act& x, const Conv& c) {
+FastDenoiser::Act FastDenoiser::conv_transpose(const Act& x, const Conv& c) const {
   const int t_out = (x.t - 1) * c.stride - 2 * c.pad + c.k, n = x.b * x.t;
   std::vector<float> cols(static_cast<size_t>(c.out) * c.k * n);
-  cblas_sgemm(kRowMajor, kTrans, kNoTrans, c.out * c.k, n, c.in, 1.f, c.w, c.out * c.k, x.v.data(), n, 0.f, cols.data(), n);
+  product(c, true, c.out * c.k, n, c.in, x.v.data(), cols.data(), false);
   Act y{c.out, x.b, t_out, std::vector<float>(static_cast<size_t>(c.out) * x.b * t_out)};
   for (int o = 0; o < c.out; ++o)
     for (int r = 0; r < x.b; ++r) {
@@ -143,7 +198,7 @@ void FastDenoiser::norm_mish(Act& h, const Norm& n) {
   mish_inplace(h.v.data(), static_cast<int64_t>(h.v.size()));
 }
 
-FastDenoiser::Act FastDenoiser::res(const Act& x, const Res& r, const Film& film) {
+FastDenoiser::Act FastDenoiser::res(const Act& x, const Res& r, const Film& film) const {
   Act h = block(x, r.b0);
   const int c = h.c;
   for (int ch = 0; ch < c; ++ch)

@@ -11,15 +11,23 @@
 // Internal to core: includes torch through unet.h.
 #pragma once
 
+#include <cstdint>
 #include <vector>
 
 #include "core/nn/unet.h"
 
 namespace dd::nn {
 
+/// The arithmetic of the denoising pass's products: float32 (the default, sgemm), or bfloat16
+/// operands with float32 accumulation (oneDNN; core/nn/bf16_gemm.h). Everything else stays float32.
+enum class Precision { kFloat32, kBFloat16 };
+
 class FastDenoiser {
  public:
-  explicit FastDenoiser(const ConditionalUnet1DImpl& net);
+  /// With kBFloat16 the weights are converted once here (about a millisecond for a million).
+  explicit FastDenoiser(const ConditionalUnet1DImpl& net, Precision precision = Precision::kFloat32);
+  FastDenoiser(const FastDenoiser&) = delete;
+  FastDenoiser& operator=(const FastDenoiser&) = delete;
 
   /// FiLM rows of one residual block: scale then bias (2 C values) per batch row, `stride` apart.
   struct Film {
@@ -40,6 +48,7 @@ class FastDenoiser {
     const float* w = nullptr;  // (out, in, k) for a convolution, (in, out, k) for a transposed one
     const float* b = nullptr;
     int in = 0, out = 0, k = 1, stride = 1, pad = 0;
+    const uint16_t* w16 = nullptr;  // bfloat16: (out, in k) for a convolution, (out k, in) for a transposed one
   };
   struct Norm {
     const float* gamma = nullptr;
@@ -71,15 +80,21 @@ class FastDenoiser {
   static Block block_of(const Conv1dBlockImpl& m);
   static Res res_of(const ResBlockImpl& m);
 
-  static Act conv(const Act& x, const Conv& c);
-  static Act conv_transpose(const Act& x, const Conv& c);
+  /// C (M x N) = A B (+ C when accumulating), A the convolution's weight matrix (transposed for
+  /// a transposed convolution), B (K x N) float32, in this denoiser's precision.
+  void product(const Conv& c, bool transposed, int M, int N, int K, const float* B, float* C, bool accumulate) const;
+  /// Gives every convolution its bfloat16 weights (kept in bf16_).
+  void convert_weights();
+
+  Act conv(const Act& x, const Conv& c) const;
+  Act conv_transpose(const Act& x, const Conv& c) const;
   static void norm_mish(Act& h, const Norm& n);
-  static Act block(const Act& x, const Block& b) {
+  Act block(const Act& x, const Block& b) const {
     Act h = conv(x, b.conv);
     norm_mish(h, b.norm);
     return h;
   }
-  static Act res(const Act& x, const Res& r, const Film& film);
+  Act res(const Act& x, const Res& r, const Film& film) const;
   /// One block of rows through the network.
   void denoise_block(const float* x, int batch, int horizon, const std::vector<Film>& films, float* out) const;
 
@@ -88,6 +103,8 @@ class FastDenoiser {
   Block final_block_;
   Conv final_conv_;
   int action_dim_ = 0;
+  Precision precision_ = Precision::kFloat32;
+  std::vector<std::vector<uint16_t>> bf16_;  // the weights' bfloat16 copies (Conv::w16 points here)
 };
 
 }  // namespace dd::nn

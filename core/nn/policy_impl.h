@@ -3,6 +3,7 @@
 
 #include <torch/torch.h>
 
+#include "core/nn/fast_unet.h"
 #include "core/nn/scheduler.h"
 #include "core/nn/unet.h"
 #include "core/policy.h"
@@ -46,6 +47,12 @@ struct DiffusionPolicy::Impl {
   /// sample() runs the denoising passes on nn::FastDenoiser unless this is set (then on torch's
   /// operators, as before it existed: the benchmarks' baseline). expected_loss() stays on torch's.
   bool torch_denoise = false;
+  /// Inference arithmetic (set_inference_precision). With bfloat16, expected_loss() runs its
+  /// denoising pass on nn::FastDenoiser too.
+  InferencePrecision precision = InferencePrecision::kFloat32;
+  nn::Precision fast_precision() const {
+    return precision == InferencePrecision::kBFloat16 ? nn::Precision::kBFloat16 : nn::Precision::kFloat32;
+  }
   /// The same computation with the full forward pass at every step (the reference for tests).
   torch::Tensor sample_reference(const torch::Tensor& obs, torch::Generator& gen) const;
 

@@ -6,6 +6,7 @@
 //   ...Torch      the same on torch's operators (the path before FastDenoiser, for the ratio)
 //   ExpectedLoss  one expected loss at N_b = 512
 //   Decision      sampling plus expected loss: what every control decision costs
+//   ...Bf16       the same with bfloat16 products (InferencePrecision::kBFloat16, an option)
 //   EnsembleDecision  5 members sample a chunk each, side by side (...Serial: one after another)
 //   EnsembleConv  5 members' convolution forward and backward: separate, or grouped (groups = 5)
 //   Threshold     the alpha-quantile of 400 pairs' expected losses, screened; ...AllRows: unscreened
@@ -61,17 +62,20 @@ void TrainStep(benchmark::State& state, const PolicyConfig& config, bool torch_m
   set_fused_optimizer(true);
 }
 
-void Sample(benchmark::State& state, const PolicyConfig& config, bool torch_denoise) {
+void Sample(benchmark::State& state, const PolicyConfig& config, bool torch_denoise,
+            InferencePrecision precision = InferencePrecision::kFloat32) {
   DiffusionPolicy policy(config, 0);
   policy.impl().torch_denoise = torch_denoise;
+  policy.set_inference_precision(precision);
   const Vec obs = bench_data().obs.row(0).transpose();
   uint64_t seed = 0;
   policy.sample(obs, seed++);
   for (auto _ : state) benchmark::DoNotOptimize(policy.sample(obs, seed++));
 }
 
-void ExpectedLoss(benchmark::State& state, const PolicyConfig& config) {
+void ExpectedLoss(benchmark::State& state, const PolicyConfig& config, InferencePrecision precision = InferencePrecision::kFloat32) {
   DiffusionPolicy policy(config, 0);
+  policy.set_inference_precision(precision);
   const Vec obs = bench_data().obs.row(0).transpose();
   const Mat chunk = bench_data().chunk(0);
   uint64_t seed = 0;
@@ -79,9 +83,11 @@ void ExpectedLoss(benchmark::State& state, const PolicyConfig& config) {
   for (auto _ : state) benchmark::DoNotOptimize(policy.expected_loss(obs, chunk, seed++, kDefaultLossSamples));
 }
 
-void Decision(benchmark::State& state, const PolicyConfig& config, bool torch_denoise) {
+void Decision(benchmark::State& state, const PolicyConfig& config, bool torch_denoise,
+              InferencePrecision precision = InferencePrecision::kFloat32) {
   DiffusionPolicy policy(config, 0);
   policy.impl().torch_denoise = torch_denoise;
+  policy.set_inference_precision(precision);
   const Vec obs = bench_data().obs.row(0).transpose();
   uint64_t seed = 0;
   policy.decide(obs, seed++);
@@ -158,6 +164,13 @@ BENCHMARK_CAPTURE(Sample, 64_128_256, kReference, true)->Name("BM_SampleTorch_64
 BENCHMARK_CAPTURE(ExpectedLoss, 64_128_256, kReference)->Name("BM_ExpectedLoss_64_128_256")->Unit(benchmark::kMillisecond);
 BENCHMARK_CAPTURE(Decision, 64_128_256, kReference, false)->Name("BM_Decision_64_128_256")->Unit(benchmark::kMillisecond);
 BENCHMARK_CAPTURE(Decision, 64_128_256, kReference, true)->Name("BM_DecisionTorch_64_128_256")->Unit(benchmark::kMillisecond);
+constexpr auto kBf16 = InferencePrecision::kBFloat16;
+BENCHMARK_CAPTURE(Sample, 64_128_256, kReference, false, kBf16)->Name("BM_SampleBf16_64_128_256")->Unit(benchmark::kMillisecond);
+BENCHMARK_CAPTURE(ExpectedLoss, 64_128_256, kReference, kBf16)->Name("BM_ExpectedLossBf16_64_128_256")->Unit(benchmark::kMillisecond);
+BENCHMARK_CAPTURE(Decision, 64_128_256, kReference, false, kBf16)->Name("BM_DecisionBf16_64_128_256")->Unit(benchmark::kMillisecond);
+BENCHMARK_CAPTURE(Sample, 32_64_128, kCpuDefault, false, kBf16)->Name("BM_SampleBf16_32_64_128")->Unit(benchmark::kMillisecond);
+BENCHMARK_CAPTURE(ExpectedLoss, 32_64_128, kCpuDefault, kBf16)->Name("BM_ExpectedLossBf16_32_64_128")->Unit(benchmark::kMillisecond);
+BENCHMARK_CAPTURE(Decision, 32_64_128, kCpuDefault, false, kBf16)->Name("BM_DecisionBf16_32_64_128")->Unit(benchmark::kMillisecond);
 BENCHMARK_CAPTURE(TrainStep, 32_64_128, kCpuDefault, false)->Name("BM_TrainStep_32_64_128")->Unit(benchmark::kMillisecond);
 BENCHMARK_CAPTURE(TrainStep, 32_64_128, kCpuDefault, true)->Name("BM_TrainStepTorchMish_32_64_128")->Unit(benchmark::kMillisecond);
 BENCHMARK_CAPTURE(TrainStep, 32_64_128, kCpuDefault, false, true)->Name("BM_TrainStepTorchAdamW_32_64_128")->Unit(benchmark::kMillisecond);
