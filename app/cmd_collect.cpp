@@ -36,7 +36,7 @@ Command add_collect(CLI::App& app) {
     DatasetWriter writer(o->out, env_args(o->task));
     int ok = 0, recorded = 0;
     double success_steps = 0;
-    ProgressBar bar(fmt::format("collect {} ({})", o->task, expert->name()), "success");
+    ProgressBar bar(fmt::format("collect {} ({})", o->task, expert->label()), "success");
     for (int e = 0; e < o->episodes; ++e) {
       const uint64_t seed = o->seed + static_cast<uint64_t>(e);
       const RecordedEpisode rec = expert_episode(*env, *expert, seed);
@@ -51,7 +51,7 @@ Command add_collect(CLI::App& app) {
     bar.finish();
     fmt::print("{} expert on {}: success {}/{} ({:.0f}%), mean duration of successful episodes {:.1f} steps ({:.1f} s); "
                "{} episodes recorded in {}\n",
-               expert->name(), o->task, ok, o->episodes, 100.0 * ok / o->episodes, ok ? success_steps / ok : 0.0,
+               expert->label(), o->task, ok, o->episodes, 100.0 * ok / o->episodes, ok ? success_steps / ok : 0.0,
                ok ? success_steps / ok / env->control_hz() : 0.0, recorded, o->out);
     return 0;
   };

@@ -65,9 +65,11 @@ class Expert {
   virtual Vec act(const Env& env) = 0;
 
   /// Noise injected while recording demonstrations (DART, Laskey et al. 2017): expert_episode executes
-  /// act() plus Gaussian noise of this standard deviation per action component and records act()
-  /// itself, so the data shows the expert correcting small deviations. Zero: no noise.
-  double execution_noise = 0;
+  /// act() plus Gaussian noise with these standard deviations, one per action component, and records
+  /// act() itself, so the data shows the expert correcting small deviations. Empty: no noise.
+  Vec execution_noise;
+  /// name() with "+noise" when execution_noise is set: what data sets record as their source.
+  std::string label() const { return execution_noise.size() > 0 ? name() + "+noise" : name(); }
 };
 
 }  // namespace dd

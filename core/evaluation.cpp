@@ -69,16 +69,20 @@ RecordedEpisode expert_episode(Env& env, Expert& expert, uint64_t seed) {
   expert.reset(seed);
   std::vector<Vec> obs, act;
   std::mt19937_64 rng(seed ^ 0xDA27'0000'0000'0001ull);
-  std::normal_distribution<float> noise(0.f, static_cast<float>(expert.execution_noise));
+  std::normal_distribution<float> noise(0.f, 1.f);
+  const Vec& sigma = expert.execution_noise;
+  if (sigma.size() > 0 && sigma.size() != env.action_dim())
+    throw Error(expert.name() + ": execution noise has " + std::to_string(sigma.size()) + " values, the actions " +
+                std::to_string(env.action_dim()));
   bool done = false;
   while (!done) {
     obs.push_back(env.observation());
     act.push_back(expert.act(env));
-    if (expert.execution_noise <= 0) {
+    if (sigma.size() == 0) {
       done = env.step(act.back()).done;
     } else {
       Vec executed = act.back();
-      for (Eigen::Index i = 0; i < executed.size(); ++i) executed[i] += noise(rng);
+      for (Eigen::Index i = 0; i < executed.size(); ++i) executed[i] += sigma[i] * noise(rng);
       done = env.step(executed).done;
     }
   }

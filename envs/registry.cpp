@@ -19,7 +19,11 @@ constexpr double kExpertDetour = 0.02;
 // in joint-position change per step [rad]: an eighth of the largest step (PushEnv::max_joint_step, 0.08).
 // Pushing policies drift off the demonstrations' arm poses (stick tilted, arm folded) and the clean
 // demonstrations never show the way back.
-constexpr double kPushExpertNoise = 0.01;
+constexpr float kPushExpertNoise = 0.01f;
+// "+noise" plugging experts: the same on the commanded TCP position [m], 2 mm a step: plugging
+// policies bring the charger down a few millimetres off (results/bc_curves/plug) and clean
+// demonstrations hold it centred all the way.
+constexpr float kPlugExpertNoise = 0.002f;
 }  // namespace
 
 std::vector<std::string> task_names() { return {"nav2d", "nav2d_random", "stack", "push", "plug"}; }
@@ -34,6 +38,16 @@ std::unique_ptr<Env> make_env(const std::string& task) {
 }
 
 std::unique_ptr<Expert> make_expert(const std::string& task, const std::string& mode) {
+  if (mode.size() > 6 && mode.compare(mode.size() - 6, 6, "+noise") == 0 && (task == "push" || task == "plug")) {
+    auto expert = make_expert(task, mode.substr(0, mode.size() - 6));
+    if (task == "push") {
+      expert->execution_noise = Vec::Constant(7, kPushExpertNoise);
+    } else {  // the TCP position only: a tilted tool or a twitching gripper would drop the charger
+      expert->execution_noise = Vec::Zero(10);
+      expert->execution_noise.head(3).setConstant(kPlugExpertNoise);
+    }
+    return expert;
+  }
   if (task == "nav2d" || task == "nav2d_random") {
     if (mode == "cw") return std::make_unique<Nav2dExpert>(Nav2dExpert::Mode::kClockwise);
     if (mode == "ccw") return std::make_unique<Nav2dExpert>(Nav2dExpert::Mode::kCounterClockwise);
@@ -48,11 +62,6 @@ std::unique_ptr<Expert> make_expert(const std::string& task, const std::string& 
     return expert;
   }
   if (task == "push") {
-    if (mode.size() > 6 && mode.compare(mode.size() - 6, 6, "+noise") == 0) {
-      auto expert = make_expert(task, mode.substr(0, mode.size() - 6));
-      expert->execution_noise = kPushExpertNoise;
-      return expert;
-    }
     if (mode == "cw") return std::make_unique<mj::PushExpert>(mj::PushExpert::Mode::kClockwise);
     if (mode == "ccw") return std::make_unique<mj::PushExpert>(mj::PushExpert::Mode::kCounterClockwise);
     if (mode == "mixed") return std::make_unique<mj::PushExpert>(mj::PushExpert::Mode::kMixed);
@@ -61,7 +70,7 @@ std::unique_ptr<Expert> make_expert(const std::string& task, const std::string& 
   }
   if (task == "plug") {
     if (mode != "mixed" && mode != "planner" && mode != "detour")
-      throw Error("plug expert: unknown mode '" + mode + "' (known: planner, detour)");
+      throw Error("plug expert: unknown mode '" + mode + "' (known: planner, detour; each with +noise)");
     auto expert = std::make_unique<mj::PlugExpert>();
     if (mode == "detour") expert->detour = kExpertDetour;
     return expert;

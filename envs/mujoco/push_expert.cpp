@@ -23,14 +23,13 @@ double cross(const Eigen::Vector2d& a, const Eigen::Vector2d& b) { return a.x() 
 }  // namespace
 
 std::string PushExpert::name() const {
-  const std::string noise = execution_noise > 0 ? "+noise" : "";
   switch (mode_) {
-    case Mode::kClockwise: return "push_cw" + noise;
-    case Mode::kCounterClockwise: return "push_ccw" + noise;
-    case Mode::kMixed: return "push_mixed" + noise;
-    case Mode::kAlternate: return "push_alternate" + noise;
+    case Mode::kClockwise: return "push_cw";
+    case Mode::kCounterClockwise: return "push_ccw";
+    case Mode::kMixed: return "push_mixed";
+    case Mode::kAlternate: return "push_alternate";
   }
-  return "push" + noise;
+  return "push";
 }
 
 void PushExpert::reset(uint64_t seed) {

@@ -26,6 +26,8 @@ declare -A runs=(
   [plug/n100_16k_detour_relative_per_step]="--task plug --config results/bc_curves/plug_relative_per_step.yaml --expert detour --demos 100 --steps 16000 --batch 128 --eval-every 4000 --curve-eval 30 --eval 100"
   [plug/n100_chamfer5]="--task plug --demos 100 --eval-every 4000 --curve-eval 30 --eval 100"
   [push_1expert/n100_16k_obs24_noise]="--task push_1expert --expert cw+noise --demos 100 --steps 16000 --batch 128 --eval-every 8000 --curve-eval 30 --eval 100"
+  [plug/n100_noise]="--task plug --expert planner+noise --demos 100 --eval-every 4000 --curve-eval 30 --eval 100"
+  [push_2experts/n100_16k_noise]="--task push_2experts --expert alternate+noise --demos 100 --steps 16000 --batch 128 --eval-every 8000 --curve-eval 30 --eval 100"
   [push_1expert/n100_32k_obs24_ccw]="--task push_1expert --expert ccw --demos 100 --steps 32000 --batch 128 --eval-every 8000 --curve-eval 30 --eval 100"
 )
 selected=("$@")
