@@ -25,7 +25,7 @@ Command add_collect(CLI::App& app) {
   cmd->add_option("--task", o->task, "task: " + fmt::format("{}", fmt::join(task_names(), ", ")))->capture_default_str();
   cmd->add_option("--episodes", o->episodes, "episodes to run")->capture_default_str()->check(CLI::PositiveNumber);
   cmd->add_option("--out", o->out, "data set file (.hdf5); appended to when it exists and matches the task")->required();
-  cmd->add_option("--expert", o->expert, "expert mode (nav2d: cw, ccw, mixed; push: those and alternate, each also with +noise; stack, plug: planner, detour)")->capture_default_str();
+  cmd->add_option("--expert", o->expert, "expert mode (nav2d: cw, ccw, mixed; push: those and alternate; stack, plug: planner, detour; push, plug: any of them with +noise, demonstrations recorded with execution noise)")->capture_default_str();
   cmd->add_option("--seed", o->seed, "first episode seed")->capture_default_str();
   cmd->add_flag("--keep-failures", o->keep_failures, "also record episodes the expert failed (marked success = false)");
   return [o] {

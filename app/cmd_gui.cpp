@@ -18,7 +18,7 @@ Command add_gui(CLI::App& app) {
   cmd->add_option("--task", o->task, "task: nav2d, nav2d_random, stack, push, plug")->capture_default_str();
   cmd->add_option("--method", o->method, "query rule")->capture_default_str()->check(CLI::IsMember({"diff", "ensemble", "thrifty", "bc"}));
   cmd->add_option("--config", o->config, "YAML config file overriding the task's preset");
-  cmd->add_option("--expert", o->expert, "scripted expert mode (nav2d, push: cw, ccw, mixed, alternate; default: the preset's)");
+  cmd->add_option("--expert", o->expert, "scripted expert mode (nav2d: cw, ccw, mixed; push: those and alternate; push, plug: +noise records demonstrations with execution noise; default: the preset's)");
   cmd->add_option("--seed", o->seed, "random seed")->capture_default_str();
   cmd->add_option("--out", o->out, "output folder (default: out/gui/TASK_METHOD_N): dataset.hdf5, session.jsonl, checkpoints/");
   cmd->add_option("--on-query", o->on_query, "pause: wait for the operator; expert: the scripted expert answers")

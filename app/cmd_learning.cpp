@@ -17,7 +17,7 @@ Command add_dagger(CLI::App& app) {
   cmd->add_option("--method", o->method, "query rule")->capture_default_str()->check(CLI::IsMember({"diff", "ensemble", "thrifty", "bc"}));
   cmd->add_option("--out", o->out, "output folder: dataset.hdf5, checkpoints/, queries.jsonl, config.json")->required();
   cmd->add_option("--config", o->config, "YAML config file overriding the task's preset");
-  cmd->add_option("--expert", o->expert, "expert mode (nav2d, push: cw, ccw, mixed, alternate; default: the preset's)");
+  cmd->add_option("--expert", o->expert, "expert mode (nav2d: cw, ccw, mixed; push: those and alternate; push, plug: +noise records demonstrations with execution noise; default: the preset's)");
   cmd->add_option("--seed", o->seed, "random seed")->capture_default_str();
   return [o] {
     ExperimentConfig c = resolve_config(o->task, o->config);

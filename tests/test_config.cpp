@@ -117,8 +117,8 @@ std::string write_config(const std::string& name, const std::string& text) {
 }  // namespace
 
 TEST(ExperimentConfig, ThePresetsNameTheirExperts) {
-  EXPECT_EQ(preset("push_1expert").expert, "cw");
-  EXPECT_EQ(preset("push_2experts").expert, "alternate");
+  EXPECT_EQ(preset("push_1expert").expert, "cw+noise");
+  EXPECT_EQ(preset("push_2experts").expert, "alternate+noise");
   EXPECT_EQ(preset("stack").expert, "planner");
   EXPECT_EQ(preset("nav2d").expert, "mixed");
   EXPECT_EQ(preset("stack").method.calibration_pairs, 0);  // thresholds over every training pair
