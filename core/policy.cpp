@@ -150,7 +150,9 @@ torch::Tensor DiffusionPolicy::Impl::sample(const torch::Tensor& obs, torch::Gen
   }
   // The loop on raw floats: the denoising pass on FastDenoiser, the scheduler's scalar step, and the
   // same generator draws in the same order as the tensor path.
-  const nn::FastDenoiser fast(*ema, fast_precision());
+  // below kBf16MinColumns no product would run in bfloat16: skip converting the weights
+  const bool wide = B * config.horizon >= nn::FastDenoiser::kBf16MinColumns;
+  const nn::FastDenoiser fast(*ema, wide ? fast_precision() : nn::Precision::kFloat32);
   const size_t chunk = static_cast<size_t>(config.horizon) * config.action_dim;
   std::vector<torch::Tensor> fc;
   for (const auto& f : films) fc.push_back(f.contiguous());

@@ -143,12 +143,13 @@ TEST(FastPaths, BFloat16ExpectedLossesKeepTheirOrder) {
   ASSERT_EQ(f32.size(), bf16.size());
   EXPECT_NE(f32, bf16) << "the same numbers: the bfloat16 path did not run";
   EXPECT_GT(spearman(f32, bf16), 0.95);
-  // sampling runs in bfloat16 too and stays close to the float32 chunk from the same noise
+  // batch-1 sampling has too few columns for bfloat16 to pay (FastDenoiser::kBf16MinColumns): the
+  // same chunk as float32 from the same noise
   const Vec o = data.obs.row(0).transpose();
   const Mat a = policy.sample(o, 5);
   policy.set_inference_precision(InferencePrecision::kFloat32);
   const Mat b = policy.sample(o, 5);
-  EXPECT_LT((a - b).norm() / b.norm(), 5e-2);
+  EXPECT_TRUE(a.isApprox(b, 1e-6f));
   EXPECT_THROW(inference_precision_from("float16"), Error);
 }
 

@@ -112,43 +112,70 @@ void FastDenoiser::convert_weights() {
   convert(final_conv_, false);
 }
 
-void FastDenoiser::product(const Conv& c, bool transposed, int M, int N, int K, const float* B, float* C, bool accumulate) const {
-  if (precision_ == Precision::kFloat32) {
-    cblas_sgemm(kRowMajor, transposed ? kTrans : kNoTrans, kNoTrans, M, N, K, 1.f, c.w, transposed ? M : K, B, N, accumulate ? 1.f : 0.f,
-                C, N);
+void FastDenoiser::transposed_product(const Conv& c, int M, int N, int K, const float* B, float* C) const {
+  if (!use_bf16(N)) {
+    cblas_sgemm(kRowMajor, kTrans, kNoTrans, M, N, K, 1.f, c.w, M, B, N, 0.f, C, N);
     return;
   }
   thread_local std::vector<uint16_t> b16;
   b16.resize(static_cast<size_t>(K) * N);
   to_bf16(B, static_cast<int64_t>(K) * N, b16.data());
-  gemm_bf16(M, N, K, c.w16, b16.data(), C, accumulate);
+  gemm_bf16(M, N, K, c.w16, b16.data(), C, false);
 }
 
 // Activations are (C, B T): row c holds channel c of every batch row, each row's T steps contiguous.
 
 // out (C_out, B T_out) = W (C_out, C_in k) x im2col(x) (C_in k, B T_out) + b: torch's (out, in, k)
 // weight is that matrix as stored, with im2col rows ordered (channel, tap).
+namespace {
+
+// im2col of a (C, B, T) activation into (C k, B T_out) columns, rows ordered (channel, tap); zero
+// padding where a tap falls outside the row. T: float, or bfloat16 bits.
+template <class T>
+void im2col(const T* x, int in, int batch, int t_in, int k, int stride, int pad, int t_out, T* cols) {
+  const size_t n = static_cast<size_t>(batch) * t_out;
+  std::fill_n(cols, static_cast<size_t>(in) * k * n, T(0));
+  for (int i = 0; i < in; ++i)
+    for (int j = 0; j < k; ++j)
+      for (int r = 0; r < batch; ++r) {
+        T* dst = cols + (static_cast<size_t>(i) * k + j) * n + static_cast<size_t>(r) * t_out;
+        const T* src = x + (static_cast<size_t>(i) * batch + r) * t_in;
+        for (int t = 0; t < t_out; ++t) {
+          const int s = t * stride + j - pad;
+          if (s >= 0 && s < t_in) dst[t] = src[s];
+        }
+      }
+}
+
+}  // namespace
+
 FastDenoiser::Act FastDenoiser::conv(const Act& x, const Conv& c) const {
-  const int t_out = (x.t + 2 * c.pad - c.k) / c.stride + 1, n = x.b * t_out;
+  const int t_out = (x.t + 2 * c.pad - c.k) / c.stride + 1, n = x.b * t_out, K = c.in * c.k;
   Act y{c.out, x.b, t_out, std::vector<float>(static_cast<size_t>(c.out) * n)};
   for (int o = 0; o < c.out; ++o) std::fill_n(y.v.data() + static_cast<size_t>(o) * n, n, c.b[o]);
+  const bool cols_needed = c.k != 1 || c.stride != 1 || c.pad != 0;
+  if (use_bf16(n)) {
+    // convert the activation once, then gather the columns in bfloat16: k times less to convert
+    thread_local std::vector<uint16_t> x16, cols16;
+    x16.resize(x.v.size());
+    to_bf16(x.v.data(), static_cast<int64_t>(x.v.size()), x16.data());
+    const uint16_t* b = x16.data();
+    if (cols_needed) {
+      cols16.resize(static_cast<size_t>(K) * n);
+      im2col(x16.data(), c.in, x.b, x.t, c.k, c.stride, c.pad, t_out, cols16.data());
+      b = cols16.data();
+    }
+    gemm_bf16(c.out, n, K, c.w16, b, y.v.data(), true);
+    return y;
+  }
   const float* b = x.v.data();
   std::vector<float> cols;
-  if (c.k != 1 || c.stride != 1 || c.pad != 0) {
-    cols.assign(static_cast<size_t>(c.in) * c.k * n, 0.f);
-    for (int i = 0; i < c.in; ++i)
-      for (int j = 0; j < c.k; ++j)
-        for (int r = 0; r < x.b; ++r) {
-          float* dst = cols.data() + (static_cast<size_t>(i) * c.k + j) * n + static_cast<size_t>(r) * t_out;
-          const float* src = x.v.data() + (static_cast<size_t>(i) * x.b + r) * x.t;
-          for (int t = 0; t < t_out; ++t) {
-            const int s = t * c.stride + j - c.pad;
-            if (s >= 0 && s < x.t) dst[t] = src[s];
-          }
-        }
+  if (cols_needed) {
+    cols.resize(static_cast<size_t>(K) * n);
+    im2col(x.v.data(), c.in, x.b, x.t, c.k, c.stride, c.pad, t_out, cols.data());
     b = cols.data();
   }
-  product(c, false, c.out, n, c.in * c.k, b, y.v.data(), true);
+  cblas_sgemm(kRowMajor, kNoTrans, kNoTrans, c.out, n, K, 1.f, c.w, K, b, n, 1.f, y.v.data(), n);
   return y;
 }
 
@@ -157,7 +184,7 @@ FastDenoiser::Act FastDenoiser::conv(const Act& x, const Conv& c) const {
 FastDenoiser::Act FastDenoiser::conv_transpose(const Act& x, const Conv& c) const {
   const int t_out = (x.t - 1) * c.stride - 2 * c.pad + c.k, n = x.b * x.t;
   std::vector<float> cols(static_cast<size_t>(c.out) * c.k * n);
-  product(c, true, c.out * c.k, n, c.in, x.v.data(), cols.data(), false);
+  transposed_product(c, c.out * c.k, n, c.in, x.v.data(), cols.data());
   Act y{c.out, x.b, t_out, std::vector<float>(static_cast<size_t>(c.out) * x.b * t_out)};
   for (int o = 0; o < c.out; ++o)
     for (int r = 0; r < x.b; ++r) {

@@ -42,6 +42,9 @@ class FastDenoiser {
   torch::Tensor denoise(const torch::Tensor& x, const std::vector<torch::Tensor>& films) const;
 
   static constexpr int64_t kColumnsPerBlock = 1024;  // batch rows x T_p per block
+  /// bfloat16 only where it pays: products of at least this many columns (batch rows x steps).
+  /// Below, oneDNN's per-call cost outweighs its faster kernel (batch-1 sampling has 4-64 columns).
+  static constexpr int kBf16MinColumns = 256;
 
  private:
   struct Conv {
@@ -80,9 +83,9 @@ class FastDenoiser {
   static Block block_of(const Conv1dBlockImpl& m);
   static Res res_of(const ResBlockImpl& m);
 
-  /// C (M x N) = A B (+ C when accumulating), A the convolution's weight matrix (transposed for
-  /// a transposed convolution), B (K x N) float32, in this denoiser's precision.
-  void product(const Conv& c, bool transposed, int M, int N, int K, const float* B, float* C, bool accumulate) const;
+  bool use_bf16(int columns) const { return precision_ == Precision::kBFloat16 && columns >= kBf16MinColumns; }
+  /// C (M x N) = W^T B for a transposed convolution's (in, out k) weight W, B (K x N) float32.
+  void transposed_product(const Conv& c, int M, int N, int K, const float* B, float* C) const;
   /// Gives every convolution its bfloat16 weights (kept in bf16_).
   void convert_weights();
 
