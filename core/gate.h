@@ -13,6 +13,11 @@ namespace dd {
 /// Throws Error on an empty set, alpha outside [0, 1], or a non-finite value.
 float quantile(std::vector<float> values, double alpha);
 
+/// Spearman's rank correlation of two equally long score sets (ties ranked by position): how well one
+/// scoring of the same pairs keeps the other's order, which is all a quantile threshold depends on.
+/// Throws Error when the sizes differ or there are fewer than two values.
+double spearman(const std::vector<float>& a, const std::vector<float>& b);
+
 /// What one decision did to the gate.
 struct GateDecision {
   bool violation = false;  // score > threshold

@@ -3,11 +3,10 @@
 // scalar step against its tensor formulas.
 #include <gtest/gtest.h>
 
-#include <algorithm>
-#include <numeric>
 
 #include "core/chunks.h"
 #include "core/ensemble.h"
+#include "core/gate.h"
 #include "core/synthetic.h"
 #include "core/trainer.h"
 #include "core/nn/bf16_gemm.h"
@@ -105,26 +104,6 @@ TEST(FastPaths, BFloat16DenoiserStaysCloseToFloat32) {
     EXPECT_LT(rel, 2e-2) << unet;
     EXPECT_GT(rel, 0.0) << unet << ": the bfloat16 path ran in float32";
   }
-}
-
-double spearman(const std::vector<float>& a, const std::vector<float>& b) {
-  auto ranks = [](const std::vector<float>& v) {
-    std::vector<int> idx(v.size());
-    std::iota(idx.begin(), idx.end(), 0);
-    std::sort(idx.begin(), idx.end(), [&](int i, int j) { return v[static_cast<size_t>(i)] < v[static_cast<size_t>(j)]; });
-    std::vector<double> r(v.size());
-    for (size_t k = 0; k < idx.size(); ++k) r[static_cast<size_t>(idx[k])] = static_cast<double>(k);
-    return r;
-  };
-  const std::vector<double> ra = ranks(a), rb = ranks(b);
-  const double n = static_cast<double>(a.size()), mean = (n - 1) / 2;
-  double num = 0, da = 0, db = 0;
-  for (size_t i = 0; i < a.size(); ++i) {
-    num += (ra[i] - mean) * (rb[i] - mean);
-    da += (ra[i] - mean) * (ra[i] - mean);
-    db += (rb[i] - mean) * (rb[i] - mean);
-  }
-  return num / std::sqrt(da * db);
 }
 
 TEST(FastPaths, BFloat16ExpectedLossesKeepTheirOrder) {

@@ -69,3 +69,19 @@ TEST(QueryGate, PatienceOneQueriesOnFirstViolationAndNaNIsAViolation) {
 }
 
 }  // namespace dd
+
+namespace dd {
+TEST(Spearman, MeasuresHowWellOneScoringKeepsTheOthersOrder) {
+  const std::vector<float> a{0.1f, 0.5f, 0.2f, 0.9f, 0.3f};
+  std::vector<float> squared, reversed;
+  for (float v : a) {
+    squared.push_back(v * v);  // a monotone transform keeps the order
+    reversed.push_back(-v);
+  }
+  EXPECT_DOUBLE_EQ(spearman(a, squared), 1.0);
+  EXPECT_DOUBLE_EQ(spearman(a, reversed), -1.0);
+  const std::vector<float> swapped{0.1f, 0.9f, 0.2f, 0.5f, 0.3f};  // the top two ranks swapped
+  EXPECT_NEAR(spearman(a, swapped), 0.9, 1e-12);                   // 1 - 6 * 2 / (5 * 24)
+  EXPECT_THROW(spearman(a, {1.f, 2.f}), Error);
+}
+}  // namespace dd

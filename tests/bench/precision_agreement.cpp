@@ -7,11 +7,9 @@
 // with the seconds each took. The gate's decisions depend on the ranks, so this is the measure the
 // option is judged by.
 //   build/tests/bench/precision_agreement CHECKPOINT DATASET [pairs=2000] [n_samples=512] [alpha=0.99]
-#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
-#include <numeric>
 #include <string>
 #include <vector>
 
@@ -20,31 +18,6 @@
 #include "core/gate.h"
 #include "core/policy.h"
 #include "core/runtime.h"
-
-namespace {
-
-std::vector<double> ranks(const std::vector<float>& v) {
-  std::vector<size_t> idx(v.size());
-  std::iota(idx.begin(), idx.end(), 0);
-  std::sort(idx.begin(), idx.end(), [&](size_t i, size_t j) { return v[i] < v[j]; });
-  std::vector<double> r(v.size());
-  for (size_t k = 0; k < idx.size(); ++k) r[idx[k]] = static_cast<double>(k);
-  return r;
-}
-
-double spearman(const std::vector<float>& a, const std::vector<float>& b) {
-  const std::vector<double> ra = ranks(a), rb = ranks(b);
-  const double mean = (static_cast<double>(a.size()) - 1) / 2;
-  double num = 0, da = 0, db = 0;
-  for (size_t i = 0; i < a.size(); ++i) {
-    num += (ra[i] - mean) * (rb[i] - mean);
-    da += (ra[i] - mean) * (ra[i] - mean);
-    db += (rb[i] - mean) * (rb[i] - mean);
-  }
-  return num / std::sqrt(da * db);
-}
-
-}  // namespace
 
 int main(int argc, char** argv) {
   using namespace dd;
