@@ -68,7 +68,7 @@ class Expert {
   /// act() plus Gaussian noise with these standard deviations, one per action component, and records
   /// act() itself, so the data shows the expert correcting small deviations. Empty: no noise.
   Vec execution_noise;
-  /// name() with "+noise" when execution_noise is set: what data sets record as their source.
+  /// name() with "+noise" when execution_noise is set: how `collect` reports the expert.
   std::string label() const { return execution_noise.size() > 0 ? name() + "+noise" : name(); }
 };
 

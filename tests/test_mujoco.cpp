@@ -221,6 +221,9 @@ TEST(Mujoco, PlugExpertInsertsOverSeededEpisodes) {
 TEST(Mujoco, PlugExpertsDetoursLeaveTheStraightLineAndStillInsert) {
   PlugEnv env;
   const auto detouring = make_expert("plug", "detour"), straight = make_expert("plug", "planner");
+  EXPECT_EQ(detouring->name(), "plug_detour");  // as `collect` reports it
+  EXPECT_EQ(straight->name(), "plug_planner");
+  EXPECT_EQ(make_expert("plug", "detour+noise")->label(), "plug_detour+noise");
   for (uint64_t seed : {300, 301}) {
     const RecordedEpisode a = expert_episode(env, *detouring, seed), b = expert_episode(env, *straight, seed);
     EXPECT_TRUE(a.success) << seed;

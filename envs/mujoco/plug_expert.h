@@ -13,7 +13,7 @@ namespace dd::mj {
 
 class PlugExpert : public PickPlaceExpert {
  public:
-  std::string name() const override { return "plug_planner"; }
+  std::string name() const override { return detour > 0 ? "plug_detour" : "plug_planner"; }
 
  protected:
   PickPlaceState read(const ArmEnv& env) const override;

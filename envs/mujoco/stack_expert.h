@@ -9,7 +9,7 @@ namespace dd::mj {
 
 class StackExpert : public PickPlaceExpert {
  public:
-  std::string name() const override { return "stack_planner"; }
+  std::string name() const override { return detour > 0 ? "stack_detour" : "stack_planner"; }
 
  protected:
   PickPlaceState read(const ArmEnv& env) const override;
