@@ -11,6 +11,8 @@
 # rollout at the receptacle but not inserted) to run the same with relative TCP targets instead.
 # The relative runs were stopped at 8000 steps too (0 of 30 each). The plug runs before n100_chamfer5
 # ran on a socket without a lead-in chamfer (PlugConfig::chamfer = 0).
+# push_1expert/n40_noise and push_2experts/n50_noise: BC at the presets' N_D (rq1_demos) with the
+# presets' budget, to check the RQ1 success lands in 30-70%.
 set -euo pipefail
 cd "$(dirname "$0")/../.."
 bin=${DD_BIN:-build/app/diffdagger}
@@ -28,6 +30,8 @@ declare -A runs=(
   [push_1expert/n100_16k_obs24_noise]="--task push_1expert --expert cw+noise --demos 100 --steps 16000 --batch 128 --eval-every 8000 --curve-eval 30 --eval 100"
   [plug/n100_noise]="--task plug --expert planner+noise --demos 100 --eval-every 4000 --curve-eval 30 --eval 100"
   [push_2experts/n100_16k_noise]="--task push_2experts --expert alternate+noise --demos 100 --steps 16000 --batch 128 --eval-every 8000 --curve-eval 30 --eval 100"
+  [push_1expert/n40_noise]="--task push_1expert --demos 40 --eval-every 8000 --curve-eval 30 --eval 100"
+  [push_2experts/n50_noise]="--task push_2experts --demos 50 --eval-every 8000 --curve-eval 30 --eval 100"
   [push_1expert/n100_32k_obs24_ccw]="--task push_1expert --expert ccw --demos 100 --steps 32000 --batch 128 --eval-every 8000 --curve-eval 30 --eval 100"
 )
 selected=("$@")
