@@ -13,6 +13,8 @@
 # ran on a socket without a lead-in chamfer (PlugConfig::chamfer = 0).
 # push_1expert/n40_noise and push_2experts/n50_noise: BC at the presets' N_D (rq1_demos) with the
 # presets' budget, to check the RQ1 success lands in 30-70%.
+# plug/n100_16k_chamfer5: the plug preset's demonstrations with the paper's budget (min(300 epochs,
+# 30,000 steps) at batch 64 is 30,000 steps for 8916 pairs, about 15,000 at batch 128), as pushing has.
 set -euo pipefail
 cd "$(dirname "$0")/../.."
 bin=${DD_BIN:-build/app/diffdagger}
@@ -32,6 +34,7 @@ declare -A runs=(
   [push_2experts/n100_16k_noise]="--task push_2experts --expert alternate+noise --demos 100 --steps 16000 --batch 128 --eval-every 8000 --curve-eval 30 --eval 100"
   [push_1expert/n40_noise]="--task push_1expert --demos 40 --eval-every 8000 --curve-eval 30 --eval 100"
   [push_2experts/n50_noise]="--task push_2experts --demos 50 --eval-every 8000 --curve-eval 30 --eval 100"
+  [plug/n100_16k_chamfer5]="--task plug --demos 100 --steps 16005 --batch 128 --eval-every 8000 --curve-eval 30 --eval 100"
   [push_1expert/n100_32k_obs24_ccw]="--task push_1expert --expert ccw --demos 100 --steps 32000 --batch 128 --eval-every 8000 --curve-eval 30 --eval 100"
 )
 selected=("$@")
