@@ -78,13 +78,9 @@ RecordedEpisode expert_episode(Env& env, Expert& expert, uint64_t seed) {
   while (!done) {
     obs.push_back(env.observation());
     act.push_back(expert.act(env));
-    if (sigma.size() == 0) {
-      done = env.step(act.back()).done;
-    } else {
-      Vec executed = act.back();
-      for (Eigen::Index i = 0; i < executed.size(); ++i) executed[i] += sigma[i] * noise(rng);
-      done = env.step(executed).done;
-    }
+    Vec executed = act.back();  // recorded clean, executed with the noise (none when sigma is empty)
+    for (Eigen::Index i = 0; i < sigma.size(); ++i) executed[i] += sigma[i] * noise(rng);
+    done = env.step(executed).done;
   }
   RecordedEpisode ep;
   ep.obs = stack_rows(obs, env.obs_dim());

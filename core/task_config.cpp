@@ -7,6 +7,7 @@
 #include <set>
 
 #include "core/json_read.h"
+#include "core/policy.h"
 
 namespace dd {
 namespace {
@@ -93,8 +94,11 @@ void apply_method(const json& j, MethodConfig& m) {
   }
   if (j.contains("precision")) {
     read(j, "precision", m.precision, "method");
-    if (m.precision != "float32" && m.precision != "bfloat16")
-      throw Error("method.precision: '" + m.precision + "' is not one of float32, bfloat16");
+    try {
+      inference_precision_from(m.precision);  // the one list of names
+    } catch (const Error& e) {
+      throw Error(std::string("method.precision: ") + e.what());
+    }
   }
 }
 

@@ -149,6 +149,7 @@ TEST(ExperimentConfig, BadProtocolOptionsNameTheFileAndKey) {
   for (const auto& [text, key] : std::vector<std::pair<std::string, std::string>>{
            {"preset: stack\ndagger: {gate_every: episode}\n", "dagger.gate_every"},
            {"preset: stack\nmethod: {score_weights: best}\n", "method.score_weights"},
+           {"preset: stack\nmethod: {precision: float16}\n", "method.precision"},
            {"preset: stack\ntrain: {epochs: -1}\n", "train.epochs"}}) {
     const std::string path = write_config("dd_bad_protocol.yaml", text);
     try {

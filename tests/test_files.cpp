@@ -12,22 +12,27 @@
 namespace dd {
 namespace fs = std::filesystem;
 
-TEST(TextFile, WritesReadsAndReplaces) {
-  const fs::path dir = fs::temp_directory_path() / "dd_text_file";
-  fs::remove_all(dir);
-  fs::create_directories(dir);
+// A fresh folder per test, removed afterwards.
+class TextFile : public testing::Test {
+ protected:
+  void SetUp() override {
+    dir = fs::temp_directory_path() / ("dd_text_file_" + std::string(testing::UnitTest::GetInstance()->current_test_info()->name()));
+    fs::remove_all(dir);
+    fs::create_directories(dir);
+  }
+  void TearDown() override { fs::remove_all(dir); }
+  fs::path dir;
+};
+
+TEST_F(TextFile, WritesReadsAndReplaces) {
   const std::string path = (dir / "a.json").string();
   write_text(path, "first\n");
   write_text(path, "second\n");
   EXPECT_EQ(read_text(path), "second\n");
   EXPECT_FALSE(fs::exists(path + ".tmp"));
-  fs::remove_all(dir);
 }
 
-TEST(TextFile, AFailedWriteLeavesTheOldFileAndNamesIt) {
-  const fs::path dir = fs::temp_directory_path() / "dd_text_file_fail";
-  fs::remove_all(dir);
-  fs::create_directories(dir);
+TEST_F(TextFile, AFailedWriteLeavesTheOldFileAndNamesIt) {
   const std::string path = (dir / "cell.json").string();
   write_text(path, "good\n");
   fs::create_directories(path + ".tmp");  // the temporary file cannot be created
@@ -39,7 +44,6 @@ TEST(TextFile, AFailedWriteLeavesTheOldFileAndNamesIt) {
   }
   EXPECT_EQ(read_text(path), "good\n");
   EXPECT_THROW(read_text((dir / "missing.json").string()), Error);
-  fs::remove_all(dir);
 }
 
 TEST(ProgressBar, TimeLeftCountsOnlyTheUnitsDoneSinceTheBarStarted) {
