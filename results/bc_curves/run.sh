@@ -15,6 +15,9 @@
 # presets' budget, to check the RQ1 success lands in 30-70%.
 # plug/n100_16k_chamfer5: the plug preset's demonstrations with the paper's budget (min(300 epochs,
 # 30,000 steps) at batch 64 is 30,000 steps for 8916 pairs, about 15,000 at batch 128), as pushing has.
+# plug/n100_nearfield: the preset with 3 more observation values (40): the socket-minus-charger error
+# in x and y clipped to +-1 cm and the charger's height over its seated height clipped to 0-2 cm, so
+# that the min-max normaliser resolves millimetres at the socket.
 set -euo pipefail
 cd "$(dirname "$0")/../.."
 bin=${DD_BIN:-build/app/diffdagger}
@@ -35,6 +38,7 @@ declare -A runs=(
   [push_1expert/n40_noise]="--task push_1expert --demos 40 --eval-every 8000 --curve-eval 30 --eval 100"
   [push_2experts/n50_noise]="--task push_2experts --demos 50 --eval-every 8000 --curve-eval 30 --eval 100"
   [plug/n100_16k_chamfer5]="--task plug --demos 100 --steps 16005 --batch 128 --eval-every 8000 --curve-eval 30 --eval 100"
+  [plug/n100_nearfield]="--task plug --demos 100 --eval-every 4000 --curve-eval 30 --eval 100"
   [push_1expert/n100_32k_obs24_ccw]="--task push_1expert --expert ccw --demos 100 --steps 32000 --batch 128 --eval-every 8000 --curve-eval 30 --eval 100"
 )
 selected=("$@")
