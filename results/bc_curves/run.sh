@@ -12,7 +12,8 @@
 # The relative runs were stopped at 8000 steps too (0 of 30 each). The plug runs before n100_chamfer5
 # ran on a socket without a lead-in chamfer (PlugConfig::chamfer = 0).
 # push_1expert/n40_noise and push_2experts/n50_noise: BC at the presets' N_D (rq1_demos) with the
-# presets' budget, to check the RQ1 success lands in 30-70%.
+# presets' budget, to check the RQ1 success lands in 30-70%. push_1expert at 40 reached 0.75, so
+# push_1expert/n20_noise tries 20.
 # plug/n100_16k_chamfer5: the plug preset's demonstrations with the paper's budget (min(300 epochs,
 # 30,000 steps) at batch 64 is 30,000 steps for 8916 pairs, about 15,000 at batch 128), as pushing has.
 # plug/n100_nearfield: the preset with 3 more observation values (40): the socket-minus-charger error
@@ -39,6 +40,7 @@ declare -A runs=(
   [push_2experts/n50_noise]="--task push_2experts --demos 50 --eval-every 8000 --curve-eval 30 --eval 100"
   [plug/n100_16k_chamfer5]="--task plug --demos 100 --steps 16005 --batch 128 --eval-every 8000 --curve-eval 30 --eval 100"
   [plug/n100_nearfield]="--task plug --demos 100 --eval-every 4000 --curve-eval 30 --eval 100"
+  [push_1expert/n20_noise]="--task push_1expert --demos 20 --eval-every 8000 --curve-eval 30 --eval 100"
   [push_1expert/n100_32k_obs24_ccw]="--task push_1expert --expert ccw --demos 100 --steps 32000 --batch 128 --eval-every 8000 --curve-eval 30 --eval 100"
 )
 selected=("$@")
