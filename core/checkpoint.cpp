@@ -71,6 +71,7 @@ void read_into(const std::string& path, Contents& c, DiffusionPolicy::Impl& impl
     throw Error(path + ": checkpoint weights are incomplete or do not fit the network: " + first_line(e.what()));
   }
   for (auto& p : impl.ema->parameters()) p.set_requires_grad(false);
+  impl.weights_changed();
 }
 
 }  // namespace

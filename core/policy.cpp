@@ -59,6 +59,17 @@ void DiffusionPolicy::Impl::copy_model_to_ema() {
   auto src = model->parameters();
   auto dst = ema->parameters();
   for (size_t i = 0; i < src.size(); ++i) dst[i].copy_(src[i]);
+  weights_changed();
+}
+
+std::shared_ptr<const nn::FastDenoiser> DiffusionPolicy::Impl::fast_denoiser(const nn::ConditionalUnet1DImpl& net) const {
+  const FastKey key{&net, net.parameters().front().data_ptr(), weights_version_.load(), precision};
+  std::lock_guard<std::mutex> lock(fast_mutex_);
+  if (!fast_ || !(fast_key_ == key)) {
+    fast_ = std::make_shared<const nn::FastDenoiser>(net, fast_precision());
+    fast_key_ = key;
+  }
+  return fast_;
 }
 
 torch::Tensor DiffusionPolicy::Impl::obs_tensor(const Mat& obs) const {
@@ -127,7 +138,7 @@ torch::Tensor DiffusionPolicy::Impl::row_losses(const torch::Tensor& obs, const 
   // float32: torch's pass (at N_b rows both paths are sgemm-bound and equally fast, bench_policy);
   // bfloat16: FastDenoiser's
   const torch::Tensor pred = precision == InferencePrecision::kFloat32 ? net->denoise(x_t, row_films)
-                                                                       : nn::FastDenoiser(*net, fast_precision()).denoise(x_t, row_films);
+                                                                       : fast_denoiser(*net)->denoise(x_t, row_films);
   return (pred - scheduler.target(x0, eps, t_rows)).pow(2).reshape({B, n, -1}).mean(2);
 }
 
@@ -150,9 +161,7 @@ torch::Tensor DiffusionPolicy::Impl::sample(const torch::Tensor& obs, torch::Gen
   }
   // The loop on raw floats: the denoising pass on FastDenoiser, the scheduler's scalar step, and the
   // same generator draws in the same order as the tensor path.
-  // below kBf16MinColumns no product would run in bfloat16: skip converting the weights
-  const bool wide = B * config.horizon >= nn::FastDenoiser::kBf16MinColumns;
-  const nn::FastDenoiser fast(*ema, wide ? fast_precision() : nn::Precision::kFloat32);
+  const std::shared_ptr<const nn::FastDenoiser> fast = fast_denoiser(*ema);
   const size_t chunk = static_cast<size_t>(config.horizon) * config.action_dim;
   std::vector<torch::Tensor> fc;
   for (const auto& f : films) fc.push_back(f.contiguous());
@@ -162,7 +171,7 @@ torch::Tensor DiffusionPolicy::Impl::sample(const torch::Tensor& obs, torch::Gen
   for (int64_t i = 0; i < n; ++i) {
     const int64_t t = ts[static_cast<size_t>(i)];
     for (size_t k = 0; k < fc.size(); ++k) rows[k] = {fc[k].data_ptr<float>() + i * B * fc[k].size(1), fc[k].size(1)};
-    fast.denoise(xs, static_cast<int>(B), config.horizon, rows, out.data());
+    fast->denoise(xs, static_cast<int>(B), config.horizon, rows, out.data());
     const torch::Tensor noise = scheduler.step_draws_noise(t) ? torch::randn(x.sizes(), gen, x.options()) : torch::Tensor();
     scheduler.step(out.data(), t, xs, out.size(), noise.defined() ? noise.data_ptr<float>() : nullptr);
   }

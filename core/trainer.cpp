@@ -173,6 +173,7 @@ float Trainer::step() {
   }
   const float l = loss.item<float>();
   if (!std::isfinite(l)) throw Error("train: the loss became non-finite at step " + std::to_string(s.step));
+  impl.weights_changed();
   ++s.step;
   return l;
 }
@@ -227,6 +228,7 @@ void Trainer::resume(const std::string& path) {
       if (!t.sizes().equals(s.ema_params[i].sizes())) throw Error(path + ": field '" + key + "' has another shape than the policy's");
       s.ema_params[i].copy_(t);
     }
+    s.impl.weights_changed();
     if (s.fused) {
       torch::Tensor m, v;
       if (!archive.try_read("exp_avg", m) || !archive.try_read("exp_avg_sq", v) || m.numel() != s.exp_avg.numel() ||

@@ -3,6 +3,8 @@
 // scalar step against its tensor formulas.
 #include <gtest/gtest.h>
 
+#include <filesystem>
+
 
 #include "core/chunks.h"
 #include "core/ensemble.h"
@@ -130,6 +132,42 @@ TEST(FastPaths, BFloat16ExpectedLossesKeepTheirOrder) {
   const Mat b = policy.sample(o, 5);
   EXPECT_TRUE(a.isApprox(b, 1e-6f));
   EXPECT_THROW(inference_precision_from("float16"), Error);
+}
+
+TEST(FastPaths, BFloat16WeightsAreConvertedAgainWhenTheWeightsChange) {
+  if (!nn::have_bf16_gemm()) GTEST_SKIP() << "built without oneDNN";
+  const PolicyConfig c = small_config("tiny");
+  DiffusionPolicy policy(c, 3, false);
+  policy.set_inference_precision(InferencePrecision::kBFloat16);
+  const ChunkDataset data = ChunkDataset::from_episodes(bimodal_episodes(8, 20, 5, 3, 2), c.horizon);
+  TrainConfig t;
+  t.steps = 80;
+  t.batch_size = 32;
+  Trainer trainer(policy, data, t);  // one trainer: the weights change in place, in the same buffers
+  for (int i = 0; i < 40; ++i) trainer.step();
+  const std::vector<float> before = policy.expected_losses(data, 17, 64);  // converts and keeps the weights
+  for (int i = 0; i < 40; ++i) trainer.step();
+  const std::vector<float> after = policy.expected_losses(data, 17, 64);
+  EXPECT_NE(before, after) << "training changed nothing, or the bfloat16 weights were stale";
+  // the same weights loaded into a fresh policy, converted from scratch: the same numbers
+  const std::string path = testing::TempDir() + "/bf16_cache.pt";
+  policy.save(path);
+  const auto loaded = DiffusionPolicy::from_checkpoint(path);
+  loaded->set_inference_precision(InferencePrecision::kBFloat16);
+  EXPECT_EQ(loaded->expected_losses(data, 17, 64), after);
+  std::filesystem::remove(path);
+}
+
+TEST(FastPaths, BFloat16BatchOneSamplingUsesItWhereTheWeightsAreMany) {
+  if (!nn::have_bf16_gemm()) GTEST_SKIP() << "built without oneDNN";
+  PolicyConfig c = small_config("medium");  // 64,128,256: middle blocks of 256 x 1280 weights
+  DiffusionPolicy policy(c, 4, false);
+  const Vec o = Vec::Constant(c.obs_dim, 0.3f);
+  const Mat f32 = policy.sample(o, 9);
+  policy.set_inference_precision(InferencePrecision::kBFloat16);
+  const Mat bf16 = policy.sample(o, 9);
+  EXPECT_FALSE(bf16.isApprox(f32, 1e-6f)) << "batch-1 sampling did not run in bfloat16";
+  EXPECT_LT((bf16 - f32).norm() / f32.norm(), 5e-2);
 }
 
 TEST(FastPaths, FusedMishMatchesTorchsForwardAndGradient) {

@@ -113,7 +113,7 @@ void FastDenoiser::convert_weights() {
 }
 
 void FastDenoiser::transposed_product(const Conv& c, int M, int N, int K, const float* B, float* C) const {
-  if (!use_bf16(N)) {
+  if (!use_bf16(M, N, K)) {
     cblas_sgemm(kRowMajor, kTrans, kNoTrans, M, N, K, 1.f, c.w, M, B, N, 0.f, C, N);
     return;
   }
@@ -154,7 +154,7 @@ FastDenoiser::Act FastDenoiser::conv(const Act& x, const Conv& c) const {
   Act y{c.out, x.b, t_out, std::vector<float>(static_cast<size_t>(c.out) * n)};
   for (int o = 0; o < c.out; ++o) std::fill_n(y.v.data() + static_cast<size_t>(o) * n, n, c.b[o]);
   const bool cols_needed = c.k != 1 || c.stride != 1 || c.pad != 0;
-  if (use_bf16(n)) {
+  if (use_bf16(c.out, n, K)) {
     // convert the activation once, then gather the columns in bfloat16: k times less to convert
     thread_local std::vector<uint16_t> x16, cols16;
     x16.resize(x.v.size());

@@ -42,9 +42,12 @@ class FastDenoiser {
   torch::Tensor denoise(const torch::Tensor& x, const std::vector<torch::Tensor>& films) const;
 
   static constexpr int64_t kColumnsPerBlock = 1024;  // batch rows x T_p per block
-  /// bfloat16 only where it pays: products of at least this many columns (batch rows x steps).
-  /// Below, oneDNN's per-call cost outweighs its faster kernel (batch-1 sampling has 4-64 columns).
+  /// bfloat16 only where it pays: products of at least this many columns (batch rows x steps), or
+  /// with at least this many weights (rows x inner size). Below both, oneDNN's per-call cost outweighs
+  /// its faster kernel (batch-1 sampling has 4-64 columns); with many weights, reading them is the
+  /// cost, and bfloat16 halves it (the 64,128,256 network's middle and up blocks at batch 1).
   static constexpr int kBf16MinColumns = 256;
+  static constexpr int64_t kBf16MinWeights = int64_t{1} << 17;
 
  private:
   struct Conv {
@@ -83,7 +86,10 @@ class FastDenoiser {
   static Block block_of(const Conv1dBlockImpl& m);
   static Res res_of(const ResBlockImpl& m);
 
-  bool use_bf16(int columns) const { return precision_ == Precision::kBFloat16 && columns >= kBf16MinColumns; }
+  bool use_bf16(int rows, int columns, int inner) const {
+    return precision_ == Precision::kBFloat16 &&
+           (columns >= kBf16MinColumns || static_cast<int64_t>(rows) * inner >= kBf16MinWeights);
+  }
   /// C (M x N) = W^T B for a transposed convolution's (in, out k) weight W, B (K x N) float32.
   void transposed_product(const Conv& c, int M, int N, int K, const float* B, float* C) const;
   /// Gives every convolution its bfloat16 weights (kept in bf16_).
