@@ -18,7 +18,8 @@
 # 30,000 steps) at batch 64 is 30,000 steps for 8916 pairs, about 15,000 at batch 128), as pushing has.
 # plug/n100_nearfield: the preset with 3 more observation values (40): the socket-minus-charger error
 # in x and y clipped to +-1 cm and the charger's height over its seated height clipped to 0-2 cm, so
-# that the min-max normaliser resolves millimetres at the socket.
+# that the min-max normaliser resolves millimetres at the socket. It ran on a build with
+# plug_nearfield.patch applied (not merged: 0.37 against the preset's 0.35).
 # plug/n100_chamfer5_seed1, _seed2: the preset again with other seeds (network, minibatches and
 # demonstrations), since two trainings gave 0.57 and 0.35. plug/n100_medium: the 64,128,256 network.
 set -euo pipefail
