@@ -65,11 +65,13 @@ void DiffusionPolicy::Impl::copy_model_to_ema() {
 std::shared_ptr<const nn::FastDenoiser> DiffusionPolicy::Impl::fast_denoiser(const nn::ConditionalUnet1DImpl& net) const {
   const FastKey key{&net, net.parameters().front().data_ptr(), weights_version_.load(), precision};
   std::lock_guard<std::mutex> lock(fast_mutex_);
-  if (!fast_ || !(fast_key_ == key)) {
-    fast_ = std::make_shared<const nn::FastDenoiser>(net, fast_precision());
-    fast_key_ = key;
+  // One slot per network: with score_weights raw, sampling (ema) and scoring (model) alternate.
+  FastSlot& slot = fast_[&net == model.get() ? 1 : 0];
+  if (!slot.denoiser || !(slot.key == key)) {
+    slot.denoiser = std::make_shared<const nn::FastDenoiser>(net, fast_precision());
+    slot.key = key;
   }
-  return fast_;
+  return slot.denoiser;
 }
 
 torch::Tensor DiffusionPolicy::Impl::obs_tensor(const Mat& obs) const {
@@ -151,7 +153,10 @@ torch::Tensor DiffusionPolicy::Impl::sample(const torch::Tensor& obs, torch::Gen
   const torch::Tensor t_all = torch::tensor(ts, torch::kInt64).repeat_interleave(B);
   const std::vector<torch::Tensor> films = ema->film(ema->condition(t_all, obs.repeat({n, 1})));
   torch::Tensor x = torch::randn({B, config.horizon, config.action_dim}, gen, torch::kFloat32);
-  if (torch_denoise) {
+  // FastDenoiser leads where torch's per-operator cost dominates (few rows); from about 16 rows on,
+  // torch's oneDNN convolutions beat its im2col products (bench_policy's SampleRows), and the
+  // ensembles' thresholds sample every training observation at once.
+  if (torch_denoise || (precision == InferencePrecision::kFloat32 && B >= kFastSampleMaxRows)) {
     std::vector<torch::Tensor> step_films(films.size());
     for (int64_t i = 0; i < n; ++i) {
       for (size_t k = 0; k < films.size(); ++k) step_films[k] = films[k].narrow(0, i * B, B);

@@ -40,12 +40,15 @@ TEST(FastPaths, HoistedConditioningSamplesMatchTheFullForwardPass) {
       c.scheduler.prediction = p;
       c.scheduler.sampler = s;
       DiffusionPolicy policy(c, 7, false);
-      const torch::Tensor obs = torch::rand({3, 5}) * 2 - 1;
-      torch::Generator g1 = make_generator(11), g2 = make_generator(11);
-      const torch::Tensor fast = policy.impl().sample(obs, g1);
-      const torch::Tensor ref = policy.impl().sample_reference(obs, g2);
-      EXPECT_TRUE(torch::allclose(fast, ref, 1e-4, 1e-5))
-          << to_string(p) << " " << to_string(s) << " max diff " << (fast - ref).abs().max().item<float>();
+      // 3 rows run on FastDenoiser, kFastSampleMaxRows rows on torch's passes
+      for (int64_t rows : {int64_t{3}, DiffusionPolicy::Impl::kFastSampleMaxRows}) {
+        const torch::Tensor obs = torch::rand({rows, 5}) * 2 - 1;
+        torch::Generator g1 = make_generator(11), g2 = make_generator(11);
+        const torch::Tensor fast = policy.impl().sample(obs, g1);
+        const torch::Tensor ref = policy.impl().sample_reference(obs, g2);
+        EXPECT_TRUE(torch::allclose(fast, ref, 1e-4, 1e-4)) << to_string(p) << " " << to_string(s) << " rows " << rows
+                                                            << " max diff " << (fast - ref).abs().max().item<float>();
+      }
     }
   }
 }
@@ -156,6 +159,22 @@ TEST(FastPaths, BFloat16WeightsAreConvertedAgainWhenTheWeightsChange) {
   loaded->set_inference_precision(InferencePrecision::kBFloat16);
   EXPECT_EQ(loaded->expected_losses(data, 17, 64), after);
   std::filesystem::remove(path);
+}
+
+// With score_weights raw, sampling reads the EMA weights and scoring the raw ones: each keeps its own
+// converted copy, so a decision does not convert both again.
+TEST(FastPaths, EmaAndRawWeightsKeepTheirOwnFastDenoiser) {
+  const PolicyConfig c = small_config("tiny");
+  DiffusionPolicy policy(c, 3, false);
+  policy.set_score_weights(ScoreWeights::kRaw);
+  auto& impl = policy.impl();
+  const auto ema = impl.fast_denoiser(*impl.ema);
+  const auto raw = impl.fast_denoiser(*impl.model);
+  EXPECT_NE(ema.get(), raw.get());
+  EXPECT_EQ(impl.fast_denoiser(*impl.ema).get(), ema.get());
+  EXPECT_EQ(impl.fast_denoiser(*impl.model).get(), raw.get());
+  impl.weights_changed();
+  EXPECT_NE(impl.fast_denoiser(*impl.ema).get(), ema.get());
 }
 
 TEST(FastPaths, BFloat16BatchOneSamplingUsesItWhereTheWeightsAreMany) {

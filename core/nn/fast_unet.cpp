@@ -112,15 +112,24 @@ void FastDenoiser::convert_weights() {
   convert(final_conv_, false);
 }
 
+namespace {
+
+// `n` floats as bfloat16 bits in `buf` (resized to fit); returns buf's data.
+const uint16_t* converted(const float* x, size_t n, std::vector<uint16_t>& buf) {
+  buf.resize(n);
+  to_bf16(x, static_cast<int64_t>(n), buf.data());
+  return buf.data();
+}
+
+}  // namespace
+
 void FastDenoiser::transposed_product(const Conv& c, int M, int N, int K, const float* B, float* C) const {
   if (!use_bf16(M, N, K)) {
     cblas_sgemm(kRowMajor, kTrans, kNoTrans, M, N, K, 1.f, c.w, M, B, N, 0.f, C, N);
     return;
   }
   thread_local std::vector<uint16_t> b16;
-  b16.resize(static_cast<size_t>(K) * N);
-  to_bf16(B, static_cast<int64_t>(K) * N, b16.data());
-  gemm_bf16(M, N, K, c.w16, b16.data(), C, false);
+  gemm_bf16(M, N, K, c.w16, converted(B, static_cast<size_t>(K) * N, b16), C, false);
 }
 
 // Activations are (C, B T): row c holds channel c of every batch row, each row's T steps contiguous.
@@ -157,12 +166,10 @@ FastDenoiser::Act FastDenoiser::conv(const Act& x, const Conv& c) const {
   if (use_bf16(c.out, n, K)) {
     // convert the activation once, then gather the columns in bfloat16: k times less to convert
     thread_local std::vector<uint16_t> x16, cols16;
-    x16.resize(x.v.size());
-    to_bf16(x.v.data(), static_cast<int64_t>(x.v.size()), x16.data());
-    const uint16_t* b = x16.data();
+    const uint16_t* b = converted(x.v.data(), x.v.size(), x16);
     if (cols_needed) {
       cols16.resize(static_cast<size_t>(K) * n);
-      im2col(x16.data(), c.in, x.b, x.t, c.k, c.stride, c.pad, t_out, cols16.data());
+      im2col(b, c.in, x.b, x.t, c.k, c.stride, c.pad, t_out, cols16.data());
       b = cols16.data();
     }
     gemm_bf16(c.out, n, K, c.w16, b, y.v.data(), true);

@@ -48,9 +48,11 @@ struct DiffusionPolicy::Impl {
   /// Reverse diffusion from noise for normalised obs (B, obs_dim) -> normalised chunks (B, T_p, A).
   /// The conditioning of every (row, timestep) is computed in one pass before the denoising loop.
   torch::Tensor sample(const torch::Tensor& obs, torch::Generator& gen) const;
-  /// sample() runs the denoising passes on nn::FastDenoiser unless this is set (then on torch's
+  /// sample() runs the denoising passes of small batches on nn::FastDenoiser unless this is set (then on torch's
   /// operators, as before it existed: the benchmarks' baseline). expected_loss() stays on torch's.
   bool torch_denoise = false;
+  /// In float32, sample() uses FastDenoiser below this many rows only (torch's passes from there on).
+  static constexpr int64_t kFastSampleMaxRows = 16;
   /// Inference arithmetic (set_inference_precision). With bfloat16, expected_loss() runs its
   /// denoising pass on nn::FastDenoiser too.
   InferencePrecision precision = InferencePrecision::kFloat32;
@@ -79,9 +81,12 @@ struct DiffusionPolicy::Impl {
       return net == o.net && first_weight == o.first_weight && version == o.version && precision == o.precision;
     }
   };
+  struct FastSlot {
+    std::shared_ptr<const nn::FastDenoiser> denoiser;
+    FastKey key;
+  };
   mutable std::mutex fast_mutex_;
-  mutable std::shared_ptr<const nn::FastDenoiser> fast_;
-  mutable FastKey fast_key_;
+  mutable FastSlot fast_[2];  // [0]: ema, [1]: model
 };
 
 /// A CPU generator seeded with `seed`.

@@ -9,6 +9,8 @@
 //   ...Bf16       the same with bfloat16 products (InferencePrecision::kBFloat16, an option)
 //   EnsembleDecision  5 members sample a chunk each, side by side (...Serial: one after another)
 //   EnsembleConv  5 members' convolution forward and backward: separate, or grouped (groups = 5)
+//   EnsembleSpread  the ensemble's threshold setting: 5 members sample for 256 observations (T_p 32);
+//                 ...Torch: on torch's operators; ...Serial: members one after another
 //   Threshold     the alpha-quantile of 400 pairs' expected losses, screened; ...AllRows: unscreened
 //   Sgemm         a large square sgemm through the same OpenBLAS: this machine's practical fp32
 //                 peak, the yardstick for the others (counter GFLOPS)
@@ -104,6 +106,31 @@ void EnsembleDecision(benchmark::State& state, const PolicyConfig& config, bool 
   for (auto _ : state) benchmark::DoNotOptimize(ensemble.decide(obs, seed++));
 }
 
+// One sampling of B rows at once (T_p 32), B = state.range(0): where FastDenoiser's lead at batch 1
+// turns into a loss against torch's oneDNN convolutions.
+void SampleRows(benchmark::State& state, PolicyConfig config, bool torch_denoise) {
+  config.horizon = 32;
+  DiffusionPolicy policy(config, 0);
+  policy.impl().torch_denoise = torch_denoise;
+  const Mat obs = bench_data().obs.topRows(state.range(0));
+  uint64_t seed = 0;
+  policy.sample_batch(obs, seed++);
+  for (auto _ : state) benchmark::DoNotOptimize(policy.sample_batch(obs, seed++));
+}
+
+// The ensemble's threshold setting: 5 members each sample a chunk for 256 training observations
+// (T_p 32, the arm presets' horizon). Denoising passes on FastDenoiser (the default) or on torch's
+// operators, members side by side (one thread each) or one after another (all threads each).
+void EnsembleSpread(benchmark::State& state, PolicyConfig config, bool torch_denoise, bool parallel) {
+  config.horizon = 32;
+  PolicyEnsemble ensemble(config, 5, 0);
+  ensemble.set_parallel_members(parallel);
+  for (int m = 0; m < ensemble.size(); ++m) ensemble.member(m).impl().torch_denoise = torch_denoise;
+  const Mat obs = bench_data().obs.topRows(256);
+  uint64_t seed = 0;
+  for (auto _ : state) benchmark::DoNotOptimize(ensemble.action_variance(obs, seed++));
+}
+
 // The threshold over 400 training pairs of a briefly trained policy, screened (1/8 of the rows
 // first) or every pair at N_b = 512; counter `refined`: pairs scored at 512 rows.
 void Threshold(benchmark::State& state, const PolicyConfig& config, bool screen) {
@@ -185,6 +212,12 @@ BENCHMARK_CAPTURE(EnsembleDecision, 64_128_256, kReference, true)->Name("BM_Ense
 BENCHMARK_CAPTURE(EnsembleDecision, 64_128_256, kReference, false)->Name("BM_EnsembleDecisionSerial_64_128_256")->Unit(benchmark::kMillisecond);
 BENCHMARK_CAPTURE(EnsembleConv, separate, false)->Name("BM_EnsembleConvSeparate")->Unit(benchmark::kMillisecond);
 BENCHMARK_CAPTURE(EnsembleConv, grouped, true)->Name("BM_EnsembleConvGrouped")->Unit(benchmark::kMillisecond);
+BENCHMARK_CAPTURE(SampleRows, 32_64_128, kCpuDefault, false)->Name("BM_SampleRows_32_64_128")->RangeMultiplier(4)->Range(1, 256)->Unit(benchmark::kMillisecond);
+BENCHMARK_CAPTURE(SampleRows, 32_64_128, kCpuDefault, true)->Name("BM_SampleRowsTorch_32_64_128")->RangeMultiplier(4)->Range(1, 256)->Unit(benchmark::kMillisecond);
+BENCHMARK_CAPTURE(EnsembleSpread, 32_64_128, kCpuDefault, false, true)->Name("BM_EnsembleSpread_32_64_128")->Unit(benchmark::kMillisecond)->MeasureProcessCPUTime()->UseRealTime();
+BENCHMARK_CAPTURE(EnsembleSpread, 32_64_128, kCpuDefault, true, true)->Name("BM_EnsembleSpreadTorch_32_64_128")->Unit(benchmark::kMillisecond)->MeasureProcessCPUTime()->UseRealTime();
+BENCHMARK_CAPTURE(EnsembleSpread, 32_64_128, kCpuDefault, false, false)->Name("BM_EnsembleSpreadSerial_32_64_128")->Unit(benchmark::kMillisecond)->MeasureProcessCPUTime()->UseRealTime();
+BENCHMARK_CAPTURE(EnsembleSpread, 32_64_128, kCpuDefault, true, false)->Name("BM_EnsembleSpreadTorchSerial_32_64_128")->Unit(benchmark::kMillisecond)->MeasureProcessCPUTime()->UseRealTime();
 BENCHMARK_CAPTURE(Threshold, 32_64_128, kCpuDefault, true)->Name("BM_Threshold_32_64_128")->Unit(benchmark::kMillisecond)->Iterations(2);
 BENCHMARK_CAPTURE(Threshold, 32_64_128, kCpuDefault, false)->Name("BM_ThresholdAllRows_32_64_128")->Unit(benchmark::kMillisecond)->Iterations(2);
 
