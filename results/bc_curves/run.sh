@@ -22,6 +22,8 @@
 # plug_nearfield.patch applied (not merged: 0.37 against the preset's 0.35).
 # plug/n100_chamfer5_seed1, _seed2: the preset again with other seeds (network, minibatches and
 # demonstrations), since two trainings gave 0.57 and 0.35. plug/n100_medium: the 64,128,256 network.
+# push_1expert/n100_ccw_noise: the preset with the other sense of rotation (ccw+noise), so that BC on
+# N_f is measured for pushing in both senses.
 set -euo pipefail
 cd "$(dirname "$0")/../.."
 bin=${DD_BIN:-build/app/diffdagger}
@@ -47,6 +49,7 @@ declare -A runs=(
   [plug/n100_chamfer5_seed1]="--task plug --demos 100 --seed 1 --eval-every 4000 --curve-eval 30 --eval 100"
   [plug/n100_chamfer5_seed2]="--task plug --demos 100 --seed 2 --eval-every 4000 --curve-eval 30 --eval 100"
   [plug/n100_medium]="--task plug --config results/bc_curves/plug_medium.yaml --demos 100 --eval-every 4000 --curve-eval 30 --eval 100"
+  [push_1expert/n100_ccw_noise]="--task push_1expert --expert ccw+noise --demos 100 --eval-every 8000 --curve-eval 30 --eval 100"
   [push_1expert/n100_32k_obs24_ccw]="--task push_1expert --expert ccw --demos 100 --steps 32000 --batch 128 --eval-every 8000 --curve-eval 30 --eval 100"
 )
 selected=("$@")
