@@ -51,6 +51,12 @@ Command add_eval(CLI::App& app) {
   cmd->add_option("--seeds", o->eval.seeds, "seeds per method")->capture_default_str()->check(CLI::Range(1, 20));
   cmd->add_option("--episodes", o->eval.episodes, "rollouts per measurement")->capture_default_str()->check(CLI::PositiveNumber);
   cmd->add_option("--methods", o->eval.methods, "methods to compare")->delimiter(',')->check(CLI::IsMember({"diff", "ensemble", "thrifty", "bc"}));
+  cmd->add_option("--jobs", o->eval.jobs,
+                  "cells (method, seed, RQ1 or RQ2) to run at a time, each in a process of its own with one thread; logs in OUT/logs "
+                  "(1: one after another in this process, with --threads)")
+      ->capture_default_str()
+      ->check(CLI::Range(1, 64));
+  cmd->add_option("--cell", o->eval.cell, "run only this cell, METHOD:SEED:rq1|rq2 (what --jobs starts)")->group("");
   return [o] {
     ExperimentConfig c = resolve_config(o->task, o->config);
     EvalOptions e = o->eval;

@@ -5,7 +5,9 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cerrno>
 #include <cstdio>
+#include <cstring>
 #include <tuple>
 #include <cmath>
 #include <filesystem>
@@ -14,7 +16,14 @@
 #include <sstream>
 #include <numeric>
 #include <map>
+#include <set>
 #include <nlohmann/json.hpp>
+
+#include <fcntl.h>
+#include <signal.h>
+#include <sys/prctl.h>
+#include <sys/wait.h>
+#include <unistd.h>
 
 #include "core/text_file.h"
 #include "core/dataset.h"
@@ -467,6 +476,144 @@ std::string csv_num(double v) { return std::isfinite(v) ? fmt::format("{:.3f}", 
 
 }  // namespace
 
+namespace {
+
+std::vector<std::string>& command_line_store() {
+  static std::vector<std::string> args;
+  return args;
+}
+
+// The arguments of this process for a child that runs one cell: the same command with one thread
+// and no --jobs (the child gets --cell instead).
+std::vector<std::string> child_arguments(const std::string& cell) {
+  const std::vector<std::string>& args = command_line_store();
+  if (args.empty()) throw Error("eval --jobs: the command line was not recorded (set_command_line)");
+  std::vector<std::string> out{args[0], "--threads", "1"};
+  for (size_t i = 1; i < args.size(); ++i) {
+    const std::string& a = args[i];
+    if (a == "--threads" || a == "--jobs" || a == "--cell") {
+      ++i;  // and its value
+      continue;
+    }
+    if (a.rfind("--threads=", 0) == 0 || a.rfind("--jobs=", 0) == 0 || a.rfind("--cell=", 0) == 0) continue;
+    out.push_back(a);
+  }
+  out.push_back("--cell");
+  out.push_back(cell);
+  return out;
+}
+
+// Runs each cell in a child process (this executable, `--cell ID`, one thread), `jobs` at a time,
+// its output into log_dir/METHOD_seedS_rqN.log. Prints a line as each starts and ends. Throws after
+// the last one if any failed, naming their logs; the cells that finished are kept.
+void run_cells_in_processes(const std::vector<EvalCell>& cells, int jobs, const std::string& log_dir) {
+  if (cells.empty()) return;
+  make_dirs(log_dir);
+  fmt::print(stderr, "[eval] {} cells, {} at a time, one thread each; their output is in {}\n", cells.size(), jobs, log_dir);
+  struct Running {
+    EvalCell cell;
+    std::string log;
+    std::chrono::steady_clock::time_point start;
+  };
+  std::map<pid_t, Running> running;
+  std::vector<std::string> failed;
+  size_t next = 0, done = 0;
+  auto start = [&](const EvalCell& cell) {
+    const std::string log = fmt::format("{}/{}_seed{}_{}.log", log_dir, cell.method, cell.seed, cell.rq1 ? "rq1" : "rq2");
+    const int fd = ::open(log.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
+    if (fd < 0) throw Error(log + ": cannot open for writing: " + std::strerror(errno));
+    std::vector<std::string> args = child_arguments(cell.id());
+    std::vector<char*> argv;
+    for (std::string& a : args) argv.push_back(a.data());
+    argv.push_back(nullptr);
+    const pid_t parent = ::getpid();
+    const pid_t pid = ::fork();
+    if (pid < 0) {
+      ::close(fd);
+      throw Error(std::string("eval --jobs: fork failed: ") + std::strerror(errno));
+    }
+    if (pid == 0) {  // the child: only async-signal-safe calls until exec
+      ::prctl(PR_SET_PDEATHSIG, SIGTERM);  // a stopped evaluation stops its cells too
+      if (::getppid() != parent) ::_exit(126);
+      ::dup2(fd, STDOUT_FILENO);
+      ::dup2(fd, STDERR_FILENO);
+      ::execv("/proc/self/exe", argv.data());
+      ::_exit(127);
+    }
+    ::close(fd);
+    running[pid] = Running{cell, log, std::chrono::steady_clock::now()};
+    fmt::print(stderr, "[eval] started {} (pid {})\n", cell.id(), pid);
+  };
+  while (next < cells.size() || !running.empty()) {
+    while (static_cast<int>(running.size()) < jobs && next < cells.size()) start(cells[next++]);
+    int status = 0;
+    const pid_t pid = ::waitpid(-1, &status, 0);
+    if (pid < 0) {
+      if (errno == EINTR) continue;
+      throw Error(std::string("eval --jobs: waitpid failed: ") + std::strerror(errno));
+    }
+    const auto it = running.find(pid);
+    if (it == running.end()) continue;
+    ++done;
+    const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - it->second.start).count();
+    const bool ok = WIFEXITED(status) && WEXITSTATUS(status) == 0;
+    const std::string how = ok                    ? "finished"
+                            : WIFSIGNALED(status) ? fmt::format("killed by signal {}", WTERMSIG(status))
+                                                  : fmt::format("failed with exit code {}", WEXITSTATUS(status));
+    fmt::print(stderr, "[eval] {}/{} cells: {} {} in {}\n", done, cells.size(), it->second.cell.id(), how, format_duration(s));
+    if (!ok) failed.push_back(it->second.cell.id() + " (" + it->second.log + ")");
+    running.erase(it);
+  }
+  if (!failed.empty()) {
+    std::string list;
+    for (const std::string& f : failed) list += (list.empty() ? "" : ", ") + f;
+    throw Error(fmt::format("eval: {} of {} cells failed: {}; the others are kept in cells/, and running the same command again "
+                            "retries the failed ones",
+                            failed.size(), cells.size(), list));
+  }
+}
+
+}  // namespace
+
+void set_command_line(int argc, char** argv) {
+  command_line_store().assign(argv, argv + argc);
+}
+
+std::string EvalCell::id() const { return fmt::format("{}:{}:{}", method, seed, rq1 ? "rq1" : "rq2"); }
+
+std::vector<EvalCell> eval_cells(const std::vector<std::string>& methods, int seeds) {
+  // rough cost: ensembles train 5 members; a DAgger run trains about as much as BC on N_f
+  auto cost = [](const EvalCell& c) {
+    const double members = (c.method == "ensemble" || c.method == "thrifty") ? 5 : 1;
+    return members * (c.rq1 ? 1.0 : 2.0) + (c.method == "thrifty" ? 0.5 : 0.0);
+  };
+  std::vector<EvalCell> cells;
+  for (int s = 0; s < seeds; ++s)
+    for (const std::string& m : methods) {
+      if (m != "bc") cells.push_back({m, s, true});
+      cells.push_back({m, s, false});
+    }
+  std::stable_sort(cells.begin(), cells.end(), [&](const EvalCell& a, const EvalCell& b) { return cost(a) > cost(b); });
+  return cells;
+}
+
+EvalCell parse_eval_cell(const std::string& id, const std::vector<std::string>& methods, int seeds) {
+  const size_t a = id.find(':'), b = id.rfind(':');
+  const std::string bad = "--cell '" + id + "': ";
+  if (a == std::string::npos || a == b) throw Error(bad + "expected METHOD:SEED:rq1 or METHOD:SEED:rq2");
+  EvalCell c;
+  c.method = id.substr(0, a);
+  if (std::find(methods.begin(), methods.end(), c.method) == methods.end()) throw Error(bad + "method '" + c.method + "' is not in --methods");
+  const std::string seed = id.substr(a + 1, b - a - 1), kind = id.substr(b + 1);
+  if (seed.empty() || seed.find_first_not_of("0123456789") != std::string::npos || seed.size() > 3 || std::stoi(seed) >= seeds)
+    throw Error(bad + "seed '" + seed + "' is not one of 0.." + std::to_string(seeds - 1));
+  c.seed = std::stoi(seed);
+  if (kind != "rq1" && kind != "rq2") throw Error(bad + "'" + kind + "' is not rq1 or rq2");
+  c.rq1 = kind == "rq1";
+  if (c.rq1 && c.method == "bc") throw Error(bad + "BC has no RQ1 cell");
+  return c;
+}
+
 void run_eval(const ExperimentConfig& config, const EvalOptions& o) {
   config.validate();
   make_dirs(o.out + "/cells");
@@ -492,7 +639,8 @@ void run_eval(const ExperimentConfig& config, const EvalOptions& o) {
   int skipped = 0;  // cells read from out/cells
 
   // A cell's file, if it was finished with this many rollouts per measurement (else an Error).
-  auto finished = [&](const std::string& path) -> std::optional<nlohmann::json> {
+  // `fresh`: cells made by this run (read back, not counted as skipped).
+  auto finished = [&](const std::string& path, const std::set<std::string>& fresh) -> std::optional<nlohmann::json> {
     if (!fs::exists(path)) return std::nullopt;
     nlohmann::json j;
     try {
@@ -503,8 +651,10 @@ void run_eval(const ExperimentConfig& config, const EvalOptions& o) {
     if (j.value("episodes", -1) != o.episodes)
       throw Error(path + ": finished with " + std::to_string(j.value("episodes", -1)) + " rollouts per measurement (field 'episodes'), this run asks for " +
                   std::to_string(o.episodes));
-    fmt::print(stderr, "{}: finished, skipped\n", path);
-    ++skipped;
+    if (!fresh.count(path)) {
+      fmt::print(stderr, "{}: finished, skipped\n", path);
+      ++skipped;
+    }
     return j;
   };
   auto save_cell = [&](const std::string& path, nlohmann::json j) {
@@ -512,42 +662,107 @@ void run_eval(const ExperimentConfig& config, const EvalOptions& o) {
     write_text(path, j.dump(2) + "\n");
   };
 
-  for (int s = 0; s < o.seeds; ++s) {
+  // One seed's config and rollout seeds.
+  auto seed_config = [&](int s) {
     ExperimentConfig c = config;
     c.dagger.seed = config.dagger.seed + static_cast<uint64_t>(s);
-    const uint64_t eval_seed = 900000 + 1000 * static_cast<uint64_t>(s);
+    return c;
+  };
+  auto eval_seed_of = [](int s) { return 900000 + 1000 * static_cast<uint64_t>(s); };
+  auto cell_base = [&](const std::string& name, int s) { return o.out + "/cells/" + name + "_seed" + std::to_string(s); };
+
+  // RQ1: a policy trained on N_D demonstrations, rolled out without intervention.
+  auto run_rq1_cell = [&](const std::string& name, int s) {
+    const ExperimentConfig c = seed_config(s);
+    const uint64_t eval_seed = eval_seed_of(s);
+    auto m = make_method(name, c.policy, c.method, c.dagger.seed);
+    const auto demos = collect_demos(c.task, c.expert, c.rq1_demos, c.dagger.seed);
+    {
+      ProgressBar bar(fmt::format("[seed {}] RQ1 {:8} train", s, name), "loss");
+      m->update(demos, {}, rq1_training(c), bar.fn());
+    }
+    double risk_data_s = 0;
+    if (name == "thrifty") {
+      // The critic learns from robot rollouts too: roll out, then refit the critic alone (the
+      // policies keep the budget every method gets). Those rollouts are Thrifty's extra cost.
+      std::vector<RecordedEpisode> robot;
+      const auto t = std::chrono::steady_clock::now();
+      evaluate_rollouts(*env, *m, std::max(5, o.episodes / 5), spec, eval_seed + 500, {}, &robot);
+      risk_data_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count();
+      risk_data_s += m->refit_risk(demos, robot);
+    }
+    std::vector<RolloutResult> results;
+    {
+      ProgressBar bar(fmt::format("[seed {}] RQ1 {:8} rollouts", s, name), "success");
+      results = evaluate_rollouts(*env, *m, o.episodes, spec, eval_seed, bar.fn());
+    }
+    const FailurePrediction p = failure_prediction(results);
+    const nlohmann::json j{{"tpr", p.tpr}, {"tnr", p.tnr}, {"f1", p.f1}, {"acc", p.accuracy}, {"tp", p.tp}, {"fp", p.fp},
+                           {"tn", p.tn}, {"fn", p.fn}, {"success", success_rate(results)}, {"risk_data_s", risk_data_s}};
+    save_cell(cell_base(name, s) + "_rq1.json", j);
+  };
+  // RQ2 and RQ3: interactive learning to N_f, then rollouts of the final policy.
+  auto run_rq2_cell = [&](const std::string& name, int s) {
+    const ExperimentConfig c = seed_config(s);
+    DaggerRunOptions ro;
+    ro.method = name;
+    ro.out = o.out + "/runs/" + name + "_seed" + std::to_string(s);
+    ro.quiet = true;
+    fs::remove_all(ro.out);
+    std::unique_ptr<Method> trained;
+    fmt::print(stderr, "[seed {}] RQ2 {:8} interactive learning to {} demonstrations...\n", s, name, d.final_demos);
+    const DaggerRunResult run = run_dagger(c, ro, &trained);
+    std::vector<RolloutResult> results;
+    {
+      ProgressBar bar(fmt::format("[seed {}] RQ2 {:8} rollouts", s, name), "success");
+      results = evaluate_rollouts(*env, *trained, o.episodes, spec, eval_seed_of(s) + 50000, bar.fn());
+    }
+    auto last_or_zero = [](const std::vector<double>& v) { return v.empty() ? 0.0 : v.back(); };
+    const nlohmann::json j{{"success", success_rate(results)},
+                           {"train_s", mean(run.iteration_train_s)},
+                           {"threshold_s", mean(run.iteration_threshold_s)},
+                           {"inference_s", run.iteration_inference_s.empty() ? 0.0 : mean(run.iteration_inference_s)},
+                           {"last_train_s", last_or_zero(run.iteration_train_s)},
+                           {"last_threshold_s", last_or_zero(run.iteration_threshold_s)},
+                           {"last_inference_s", last_or_zero(run.iteration_inference_s)},
+                           {"interventions", run.interventions},
+                           {"queries", run.queries},
+                           {"timeouts", run.timeouts},
+                           {"dagger_episodes", run.episodes}};
+    save_cell(cell_base(name, s) + "_rq2.json", j);
+    fmt::print(stderr, "[seed {}] {:8} success {:.2f}; {} interventions ({} queries, {} time-outs) in {} episodes\n", s, name,
+               j["success"].get<double>(), run.interventions, run.queries, run.timeouts, run.episodes);
+  };
+
+  // A child process of `--jobs`: one cell, then done.
+  if (!o.cell.empty()) {
+    const EvalCell cell = parse_eval_cell(o.cell, o.methods, o.seeds);
+    if (cell.rq1)
+      run_rq1_cell(cell.method, cell.seed);
+    else
+      run_rq2_cell(cell.method, cell.seed);
+    return;
+  }
+
+  // --jobs N: the unfinished cells, the longest first, N at a time, each in a process of its own.
+  std::set<std::string> ran_here;  // cells finished by this run's child processes
+  if (o.jobs > 1) {
+    std::vector<EvalCell> todo;
+    for (const EvalCell& cell : eval_cells(o.methods, o.seeds))
+      if (!fs::exists(cell_base(cell.method, cell.seed) + (cell.rq1 ? "_rq1.json" : "_rq2.json"))) todo.push_back(cell);
+    for (const EvalCell& cell : todo) ran_here.insert(cell_base(cell.method, cell.seed) + (cell.rq1 ? "_rq1.json" : "_rq2.json"));
+    run_cells_in_processes(todo, o.jobs, o.out + "/logs");
+  }
+
+  for (int s = 0; s < o.seeds; ++s) {
     for (const std::string& name : o.methods) {
       Row& row = rows[name];
-      const std::string cell = o.out + "/cells/" + name + "_seed" + std::to_string(s);
-      // RQ1: a policy trained on N_D demonstrations, rolled out without intervention.
+      const std::string cell = cell_base(name, s);
       if (name != "bc") {
-        auto j = finished(cell + "_rq1.json");
+        auto j = finished(cell + "_rq1.json", ran_here);
         if (!j) {
-          auto m = make_method(name, c.policy, c.method, c.dagger.seed);
-          const auto demos = collect_demos(c.task, c.expert, c.rq1_demos, c.dagger.seed);
-          {
-            ProgressBar bar(fmt::format("[seed {}] RQ1 {:8} train", s, name), "loss");
-            m->update(demos, {}, rq1_training(c), bar.fn());
-          }
-          double risk_data_s = 0;
-          if (name == "thrifty") {
-            // The critic learns from robot rollouts too: roll out, then refit the critic alone (the
-            // policies keep the budget every method gets). Those rollouts are Thrifty's extra cost.
-            std::vector<RecordedEpisode> robot;
-            const auto t = std::chrono::steady_clock::now();
-            evaluate_rollouts(*env, *m, std::max(5, o.episodes / 5), spec, eval_seed + 500, {}, &robot);
-            risk_data_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count();
-            risk_data_s += m->refit_risk(demos, robot);
-          }
-          std::vector<RolloutResult> results;
-          {
-            ProgressBar bar(fmt::format("[seed {}] RQ1 {:8} rollouts", s, name), "success");
-            results = evaluate_rollouts(*env, *m, o.episodes, spec, eval_seed, bar.fn());
-          }
-          const FailurePrediction p = failure_prediction(results);
-          j = nlohmann::json{{"tpr", p.tpr}, {"tnr", p.tnr}, {"f1", p.f1}, {"acc", p.accuracy}, {"tp", p.tp}, {"fp", p.fp},
-                             {"tn", p.tn}, {"fn", p.fn}, {"success", success_rate(results)}, {"risk_data_s", risk_data_s}};
-          save_cell(cell + "_rq1.json", *j);
+          run_rq1_cell(name, s);
+          j = finished(cell + "_rq1.json", {cell + "_rq1.json"});
         }
         // undefined rates (NaN) are written as null
         auto rate = [&](const char* k) { return (*j)[k].is_number() ? (*j)[k].get<double>() : NAN; };
@@ -559,37 +774,10 @@ void run_eval(const ExperimentConfig& config, const EvalOptions& o) {
         row.rq1_success.push_back((*j)["success"].get<double>());
         if (name == "thrifty") row.risk_data.push_back((*j)["risk_data_s"].get<double>());
       }
-      // RQ2 and RQ3: interactive learning to N_f, then rollouts of the final policy.
-      auto j = finished(cell + "_rq2.json");
+      auto j = finished(cell + "_rq2.json", ran_here);
       if (!j) {
-        DaggerRunOptions ro;
-        ro.method = name;
-        ro.out = o.out + "/runs/" + name + "_seed" + std::to_string(s);
-        ro.quiet = true;
-        fs::remove_all(ro.out);
-        std::unique_ptr<Method> trained;
-        fmt::print(stderr, "[seed {}] RQ2 {:8} interactive learning to {} demonstrations...\n", s, name, d.final_demos);
-        const DaggerRunResult run = run_dagger(c, ro, &trained);
-        std::vector<RolloutResult> results;
-        {
-          ProgressBar bar(fmt::format("[seed {}] RQ2 {:8} rollouts", s, name), "success");
-          results = evaluate_rollouts(*env, *trained, o.episodes, spec, eval_seed + 50000, bar.fn());
-        }
-        auto last_or_zero = [](const std::vector<double>& v) { return v.empty() ? 0.0 : v.back(); };
-        j = nlohmann::json{{"success", success_rate(results)},
-                           {"train_s", mean(run.iteration_train_s)},
-                           {"threshold_s", mean(run.iteration_threshold_s)},
-                           {"inference_s", run.iteration_inference_s.empty() ? 0.0 : mean(run.iteration_inference_s)},
-                           {"last_train_s", last_or_zero(run.iteration_train_s)},
-                           {"last_threshold_s", last_or_zero(run.iteration_threshold_s)},
-                           {"last_inference_s", last_or_zero(run.iteration_inference_s)},
-                           {"interventions", run.interventions},
-                           {"queries", run.queries},
-                           {"timeouts", run.timeouts},
-                           {"dagger_episodes", run.episodes}};
-        save_cell(cell + "_rq2.json", *j);
-        fmt::print(stderr, "[seed {}] {:8} success {:.2f}; {} interventions ({} queries, {} time-outs) in {} episodes\n", s, name,
-                   (*j)["success"].get<double>(), run.interventions, run.queries, run.timeouts, run.episodes);
+        run_rq2_cell(name, s);
+        j = finished(cell + "_rq2.json", {cell + "_rq2.json"});
       }
       row.success.push_back((*j)["success"].get<double>());
       row.train.push_back((*j)["train_s"].get<double>());

@@ -94,8 +94,27 @@ struct EvalOptions {
   int seeds = 1;
   int episodes = 100;   // rollouts per RQ1 / RQ2 measurement
   std::vector<std::string> methods{"diff", "ensemble", "thrifty", "bc"};
+  int jobs = 1;         // cells run at a time, each in a process of its own with one thread (1: in this process)
+  std::string cell;     // "METHOD:SEED:rq1|rq2": run only this cell (what --jobs gives each child process)
   void apply_quick(ExperimentConfig& config);
 };
+
+/// One cell of an evaluation: RQ1 (a policy on N_D demonstrations), or RQ2 and RQ3 (a DAgger run to
+/// N_f and its final policy's rollouts), of one method and seed. BC has only the second.
+struct EvalCell {
+  std::string method;
+  int seed = 0;
+  bool rq1 = false;
+  std::string id() const;  // "METHOD:SEED:rq1|rq2"
+};
+/// Every cell of `methods` x `seeds`, the longest first (ensemble methods' DAgger runs train 5 members).
+std::vector<EvalCell> eval_cells(const std::vector<std::string>& methods, int seeds);
+/// Parses a cell id; an Error names what is wrong with it.
+EvalCell parse_eval_cell(const std::string& id, const std::vector<std::string>& methods, int seeds);
+
+/// The command line this process was started with (main() records it), for the child processes of
+/// `eval --jobs`.
+void set_command_line(int argc, char** argv);
 
 /// Writes report.md, rq1.csv, rq2.csv, rq3.csv and the PNG plots to options.out.
 void run_eval(const ExperimentConfig& config, const EvalOptions& options);

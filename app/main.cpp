@@ -4,6 +4,7 @@
 #include <map>
 
 #include "app/commands.h"
+#include "app/experiments.h"
 #include "core/config.h"
 #include "core/runtime.h"
 
@@ -33,6 +34,7 @@ int main(int argc, char** argv) {
   add(dd::app::add_bimodal);
   add(dd::app::add_inspect);
 
+  dd::app::set_command_line(argc, argv);
   CLI11_PARSE(app, argc, argv);
   spdlog::set_level(verbose ? spdlog::level::debug : spdlog::level::info);
   spdlog::set_pattern("%^[%L]%$ %v");
@@ -41,6 +43,9 @@ int main(int argc, char** argv) {
     for (auto& [sub, run] : commands)
       if (sub->parsed()) return run();
   } catch (const dd::Error& e) {
+    spdlog::error("{}", e.what());
+    return 1;
+  } catch (const std::exception& e) {  // a library's (a file system error, for instance)
     spdlog::error("{}", e.what());
     return 1;
   }

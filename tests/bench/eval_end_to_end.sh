@@ -2,7 +2,8 @@
 # End-to-end speed: the same small `eval` on stacking (tests/bench/eval_stack_small.yaml, 10 rollouts
 # per measurement, all four methods) with each binary given, back to back on the same machine.
 # Prints each run's wall-clock and its RQ3 times, and whether RQ1 and RQ2 agree between the runs.
-# Usage: tests/bench/eval_end_to_end.sh BIN [BIN...]   (from the repository root)
+# Usage: tests/bench/eval_end_to_end.sh BIN [BIN...]   (from the repository root); a BIN may carry
+#   extra eval arguments in the same word: tests/bench/eval_end_to_end.sh build/app/diffdagger "build/app/diffdagger --jobs 2"
 #   e.g. a build of the commit before the speed work beside today's:
 #   git worktree add /tmp/before 621aaf4^ && (cd /tmp/before && cmake -B build -G Ninja -DCMAKE_BUILD_TYPE=Release && cmake --build build -j2 --target diffdagger)
 #   tests/bench/eval_end_to_end.sh /tmp/before/build/app/diffdagger build/app/diffdagger
@@ -13,13 +14,14 @@ cd "$(dirname "$0")/../.."
 out=${OUT:-/tmp/dd_eval_bench}
 rm -rf "$out" && mkdir -p "$out"
 i=0
-for bin in "$@"; do
+for spec in "$@"; do
   i=$((i + 1))
+  read -ra run <<< "$spec"  # BIN, then any extra eval arguments
   start=$(date +%s.%N)
-  "$bin" --threads "${DD_THREADS:-2}" eval --task stack --config tests/bench/eval_stack_small.yaml --episodes 10 \
-    --out "$out/run$i" > "$out/run$i.log" 2>&1
+  "${run[0]}" --threads "${DD_THREADS:-2}" eval --task stack --config tests/bench/eval_stack_small.yaml --episodes 10 \
+    --out "$out/run$i" "${run[@]:1}" > "$out/run$i.log" 2>&1
   end=$(date +%s.%N)
-  printf 'run%d  %-50s  %7.1f s\n' "$i" "$bin" "$(echo "$end - $start" | bc)"
+  printf 'run%d  %-50s  %7.1f s\n' "$i" "$spec" "$(echo "$end - $start" | bc)"
   cut -d, -f1-5 "$out/run$i/rq3.csv" | column -t -s, | sed 's/^/    /'
 done
 for j in $(seq 2 "$i"); do

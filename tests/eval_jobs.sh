@@ -1,0 +1,41 @@
+#!/usr/bin/env bash
+# `eval --jobs 2` runs the cells in child processes of one thread each and gives what one process with
+# one thread gives: the same RQ1 and RQ2 numbers, a log per cell, and a report. A cell that fails is
+# named with its log, and the finished cells are kept for the rerun.
+# Usage: tests/eval_jobs.sh BIN   (ctest runs it in the build's tests folder)
+set -euo pipefail
+bin=$1
+dir=$(mktemp -d)
+trap 'rm -rf "$dir"' EXIT
+cat > "$dir/tiny.yaml" <<'YAML'
+preset: nav2d
+train: {steps: 30, batch_size: 32, warmup_steps: 10}
+dagger: {initial_demos: 3, final_demos: 5, demos_per_update: 2}
+method: {members: 2, critic_steps: 50, loss_samples: 64}
+rq1_demos: 2
+YAML
+args=(eval --task nav2d --config "$dir/tiny.yaml" --episodes 4 --methods diff,thrifty,bc)
+"$bin" --threads 1 "${args[@]}" --out "$dir/one" > "$dir/one.log" 2>&1 || { cat "$dir/one.log"; exit 1; }
+"$bin" --threads 2 "${args[@]}" --jobs 2 --out "$dir/two" > "$dir/two.log" 2>&1 || { cat "$dir/two.log"; exit 1; }
+for f in rq1 rq2; do
+  # the rates and counts; RQ3's wall-clock times differ by nature
+  if ! cmp -s <(cut -d, -f1-14 "$dir/one/$f.csv") <(cut -d, -f1-14 "$dir/two/$f.csv"); then
+    echo "FAIL: $f.csv differs between --jobs 1 --threads 1 and --jobs 2"; diff "$dir/one/$f.csv" "$dir/two/$f.csv"; exit 1
+  fi
+done
+for cell in diff_seed0_rq1 diff_seed0_rq2 thrifty_seed0_rq1 thrifty_seed0_rq2 bc_seed0_rq2; do
+  [[ -s $dir/two/logs/$cell.log ]] || { echo "FAIL: no log for $cell"; exit 1; }
+  [[ -f $dir/two/cells/$cell.json ]] || { echo "FAIL: no cell file for $cell"; exit 1; }
+done
+grep -q "5/5 cells" "$dir/two.log" || { echo "FAIL: no progress line for the last cell"; cat "$dir/two.log"; exit 1; }
+grep -q "cells finished by an earlier" "$dir/two/report.md" && { echo "FAIL: cells run by --jobs counted as an earlier run's"; exit 1; }
+# a cell that cannot run: the rerun names it and its log, keeps the others, and fails
+rm "$dir/two/cells/bc_seed0_rq2.json" "$dir/two/cells/diff_seed0_rq2.json"
+rm -rf "$dir/two/runs" && touch "$dir/two/runs"  # no folder can be made for their runs
+if "$bin" "${args[@]}" --jobs 2 --out "$dir/two" > "$dir/fail.log" 2>&1; then
+  echo "FAIL: a failing cell went unreported"; exit 1
+fi
+grep -q "cells failed" "$dir/fail.log" && grep -q "logs/bc_seed0_rq2.log" "$dir/fail.log" ||
+  { echo "FAIL: the failed cells and their logs are not named"; cat "$dir/fail.log"; exit 1; }
+[[ -f $dir/two/cells/thrifty_seed0_rq2.json ]] || { echo "FAIL: a finished cell was lost"; exit 1; }
+echo "eval --jobs: same RQ1 and RQ2 as one process, logs per cell, failures named"
