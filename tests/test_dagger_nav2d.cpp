@@ -4,6 +4,7 @@
 
 #include <filesystem>
 #include <fstream>
+#include <set>
 #include <sstream>
 
 #include "app/experiments.h"
@@ -94,6 +95,38 @@ TEST(DaggerNav2d, QuickEvaluationWritesEveryFile) {
   EXPECT_NE(report.find("| TP | FP | TN | FN |"), std::string::npos);
   EXPECT_NE(report.find("final iteration"), std::string::npos);
   fs::remove_all(e.out);
+}
+
+// The cells `eval --jobs` hands to its child processes: every (method, seed, RQ) once, the ensemble
+// methods' DAgger runs first; a malformed --cell is refused, saying what is wrong.
+TEST(DaggerNav2d, EvalCellsCoverEveryMethodAndSeedLongestFirst) {
+  const std::vector<std::string> methods{"diff", "ensemble", "thrifty", "bc"};
+  const std::vector<EvalCell> cells = eval_cells(methods, 2);
+  ASSERT_EQ(cells.size(), 14u);  // (3 methods x 2 + BC's 1) x 2 seeds
+  EXPECT_EQ(cells[0].method, "thrifty");
+  EXPECT_FALSE(cells[0].rq1);
+  std::set<std::string> ids;
+  for (const EvalCell& c : cells) {
+    ids.insert(c.id());
+    const EvalCell back = parse_eval_cell(c.id(), methods, 2);
+    EXPECT_EQ(back.id(), c.id());
+  }
+  EXPECT_EQ(ids.size(), cells.size());
+  EXPECT_EQ(ids.count("bc:1:rq1"), 0u);
+  auto message = [&](const std::string& id) {
+    try {
+      parse_eval_cell(id, methods, 2);
+    } catch (const Error& e) {
+      return std::string(e.what());
+    }
+    return std::string("accepted");
+  };
+  EXPECT_NE(message("bc:0:rq1").find("BC has no RQ1"), std::string::npos);
+  EXPECT_NE(message("diff:2:rq2").find("seed '2'"), std::string::npos);
+  EXPECT_NE(message("diff:x:rq2").find("seed 'x'"), std::string::npos);
+  EXPECT_NE(message("dif:0:rq2").find("method 'dif'"), std::string::npos);
+  EXPECT_NE(message("diff:0:rq3").find("'rq3'"), std::string::npos);
+  EXPECT_NE(message("diff").find("METHOD:SEED"), std::string::npos);
 }
 
 TEST(DaggerNav2d, AStoppedEvaluationRerunsOnlyTheUnfinishedCells) {
