@@ -1,6 +1,8 @@
 #include "core/ensemble.h"
 
 #include <cmath>
+#include <mutex>
+#include <numeric>
 #include <random>
 
 #include <ATen/Parallel.h>
@@ -22,26 +24,41 @@ void PolicyEnsemble::reinitialize(uint64_t seed) {
 std::vector<TrainStats> PolicyEnsemble::train(const std::vector<Episode>& episodes, const TrainConfig& config,
                                               const ProgressFn& progress) {
   if (episodes.empty()) throw Error("ensemble: no episodes to train on");
+  // Every member's data, drawn first and in member order: the same resamples however they train.
   std::mt19937_64 rng(seed_ ^ 0xb0075742ull);
   std::uniform_int_distribution<size_t> pick(0, episodes.size() - 1);
-  std::vector<TrainStats> stats;
+  std::vector<std::vector<Episode>> data(members_.size());
+  data[0] = episodes;
+  for (size_t m = 1; m < data.size(); ++m) {
+    data[m].reserve(episodes.size());
+    for (size_t i = 0; i < episodes.size(); ++i) data[m].push_back(episodes[pick(rng)]);
+  }
   const int horizon = members_[0]->config().horizon;
   const int per_member = config.steps_for(ChunkDataset::from_episodes(episodes, horizon).size());
   const int total = per_member * size();
-  for (int m = 0; m < size(); ++m) {
-    std::vector<Episode> resample;
-    if (m == 0) {
-      resample = episodes;
-    } else {
-      resample.reserve(episodes.size());
-      for (size_t i = 0; i < episodes.size(); ++i) resample.push_back(episodes[pick(rng)]);
-    }
+  std::vector<TrainStats> stats(members_.size());
+  std::vector<int> done(members_.size(), 0);
+  std::mutex progress_mutex;
+  auto train_member = [&](int64_t m) {
     TrainConfig c = config;
     c.seed = config.seed + static_cast<uint64_t>(m) * 7919;
-    const ProgressFn member_progress = progress ? ProgressFn([&, m](int done, int, double loss) {
-      progress(std::min(total, m * per_member + done), total, loss);
+    const ProgressFn member_progress = progress ? ProgressFn([&, m](int steps, int, double loss) {
+      std::lock_guard<std::mutex> lock(progress_mutex);
+      done[static_cast<size_t>(m)] = steps;
+      progress(std::min(total, std::accumulate(done.begin(), done.end(), 0)), total, loss);
     }) : ProgressFn{};
-    stats.push_back(dd::train(*members_[static_cast<size_t>(m)], ChunkDataset::from_episodes(resample, horizon), c, member_progress));
+    stats[static_cast<size_t>(m)] =
+        dd::train(*members_[static_cast<size_t>(m)], ChunkDataset::from_episodes(data[static_cast<size_t>(m)], horizon), c, member_progress);
+  };
+  if (parallel_members_ && at::get_num_threads() > 1) {
+    // One member per thread, one thread inside each: a training step uses two threads poorly, so
+    // two members side by side get through almost twice the steps. Inside the parallel region
+    // torch's operators run single-threaded, so each member trains as it would with --threads 1.
+    at::parallel_for(0, size(), 1, [&](int64_t begin, int64_t end) {
+      for (int64_t m = begin; m < end; ++m) train_member(m);
+    });
+  } else {
+    for (int64_t m = 0; m < size(); ++m) train_member(m);
   }
   return stats;
 }

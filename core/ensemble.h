@@ -45,8 +45,9 @@ class PolicyEnsemble {
   };
   Decision decide(const Vec& obs, uint64_t seed) const;
 
-  /// Members sample side by side, one per thread (the default), or one after another with every
-  /// thread inside each (the benchmarks' baseline). The chunks are the same either way.
+  /// Members train and sample side by side, one per thread (the default, with more than one
+  /// thread), or one after another with every thread inside each (the benchmarks' baseline). The
+  /// weights and chunks are those of a one-thread run either way.
   void set_parallel_members(bool on) { parallel_members_ = on; }
 
  private:

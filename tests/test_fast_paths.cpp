@@ -15,6 +15,7 @@
 #include "core/nn/fast_unet.h"
 #include "core/nn/mish.h"
 #include "core/nn/policy_impl.h"
+#include "core/runtime.h"
 
 namespace dd {
 
@@ -242,6 +243,35 @@ TEST(FastPaths, ScalarSchedulerStepMatchesTheTensorFormulas) {
       EXPECT_TRUE(torch::allclose(sched.step(out, t, x_t, g), expected, 1e-3, 1e-4)) << to_string(p) << " t " << t;
     }
   }
+}
+
+// With 2 threads the members train side by side, one thread each: the same weights as one after
+// another with 1 thread, and so a member's chunks are the same.
+TEST(FastPaths, EnsembleMembersTrainedSideBySideMatchOneThread) {
+  const int threads = num_threads();
+  PolicyConfig c = small_config("tiny");
+  const std::vector<Episode> episodes = bimodal_episodes(6, 20, c.obs_dim, c.action_dim, 3);
+  TrainConfig t;
+  t.steps = 40;
+  t.batch_size = 16;
+  auto trained = [&](int n_threads) {
+    set_num_threads(n_threads);
+    auto e = std::make_unique<PolicyEnsemble>(c, 3, 4);
+    int last_done = 0, last_total = 0;
+    e->train(episodes, t, [&](int done, int total, double) {
+      EXPECT_GE(done, last_done) << "progress went back";
+      last_done = done, last_total = total;
+    });
+    EXPECT_EQ(last_done, 3 * 40);
+    EXPECT_EQ(last_total, 3 * 40);
+    return e;
+  };
+  const auto serial = trained(1);
+  const auto side_by_side = trained(2);
+  set_num_threads(threads);
+  const Vec o = Vec::Constant(c.obs_dim, 0.2f);
+  for (int m = 0; m < 3; ++m)
+    EXPECT_TRUE(serial->member(m).sample(o, 11).isApprox(side_by_side->member(m).sample(o, 11), 1e-5f)) << "member " << m;
 }
 
 TEST(FastPaths, EnsembleMembersSampledSideBySideGiveTheSameChunks) {
