@@ -407,7 +407,10 @@ int write_learning_curves(const std::string& dir) {
     csv += fmt::format("{},{},{},{},{},{:.3f},{}\n", r.cell, r.task, r.expert, r.demos, r.steps, r.success, r.episodes);
   write_text(dir + "/curves.csv", csv);
 
-  const ui::Rgb palette[] = {{60, 110, 210}, {235, 120, 50}, {60, 160, 90}, {200, 60, 60}, {150, 90, 190}, {120, 120, 120}};
+  // ten distinct colours (the Tableau 10 set), so that up to ten runs never share one
+  const ui::Rgb palette[] = {{78, 121, 167}, {242, 142, 43}, {89, 161, 79},  {225, 87, 89},   {118, 183, 178},
+                             {237, 201, 72}, {176, 122, 161}, {255, 157, 167}, {156, 117, 95}, {186, 176, 172}};
+  constexpr size_t kColors = sizeof(palette) / sizeof(palette[0]);
   ui::LinePanel by_demos;
   by_demos.title = "BC success against demonstrations";
   by_demos.x_label = "demonstrations";
@@ -418,7 +421,7 @@ int write_learning_curves(const std::string& dir) {
     const std::string key = fmt::format("{} ({}), {} steps, obs {}", r.task, r.expert, r.steps, r.obs_dim);
     if (!line_of.count(key)) {
       line_of[key] = by_demos.series.size();
-      by_demos.series.push_back({key, {}, {}, palette[by_demos.series.size() % 6]});
+      by_demos.series.push_back({key, {}, {}, palette[by_demos.series.size() % kColors]});
     }
     auto& s = by_demos.series[line_of[key]];
     s.x.push_back(r.demos);
@@ -431,7 +434,7 @@ int write_learning_curves(const std::string& dir) {
   by_steps.y_min = 0, by_steps.y_max = 1;
   for (const Run& r : runs) {
     if (r.curve.size() < 2) continue;
-    ui::LineSeries s{fmt::format("{}: {} ({}), {} demos", r.cell, r.task, r.expert, r.demos), {}, {}, palette[by_steps.series.size() % 6]};
+    ui::LineSeries s{fmt::format("{}: {} ({}), {} demos", r.cell, r.task, r.expert, r.demos), {}, {}, palette[by_steps.series.size() % kColors]};
     for (const auto& [step, success] : r.curve) s.x.push_back(step), s.y.push_back(success);
     by_steps.series.push_back(std::move(s));
   }
@@ -623,7 +626,12 @@ void run_eval(const ExperimentConfig& config, const EvalOptions& o) {
   if (fs::exists(o.out + "/config.json") && read_text(o.out + "/config.json") != config_text && !fs::is_empty(o.out + "/cells"))
     throw Error(o.out + "/config.json: finished cells of another config are in " + o.out +
                 "/cells; remove the folder or choose another --out");
-  write_text(o.out + "/config.json", config_text);
+  if (o.cell.empty()) {
+    write_text(o.out + "/config.json", config_text);
+  } else if (!fs::exists(o.out + "/config.json") || read_text(o.out + "/config.json") != config_text) {
+    // a cell's process (eval --jobs) runs in the folder its parent prepared, and only reads it
+    throw Error(o.out + "/config.json: --cell runs a cell of the evaluation whose config this file holds, and it holds another");
+  }
   struct Row {
     std::vector<double> tpr, tnr, f1, acc, rq1_success, success;
     std::vector<double> train, threshold, inference, risk_data;        // mean over a run's iterations

@@ -4,6 +4,8 @@
 #include <fstream>
 #include <sstream>
 
+#include <unistd.h>
+
 #include "core/config.h"
 
 namespace dd {
@@ -16,8 +18,12 @@ std::string read_text(const std::string& path) {
   return text.str();
 }
 
+std::string temporary_path(const std::string& path) { return path + ".tmp." + std::to_string(::getpid()); }
+
 void write_text(const std::string& path, const std::string& text) {
-  const std::string tmp = path + ".tmp";
+  // a temporary name of this process's own: processes writing the same file (eval --jobs) never
+  // move each other's half-written file into place
+  const std::string tmp = temporary_path(path);
   std::error_code ec;
   {
     std::ofstream f(tmp);
@@ -31,8 +37,9 @@ void write_text(const std::string& path, const std::string& text) {
   }
   std::filesystem::rename(tmp, path, ec);
   if (ec) {
+    const std::string why = ec.message();
     std::filesystem::remove(tmp, ec);
-    throw Error(path + ": could not move into place: " + ec.message());
+    throw Error(path + ": could not move into place: " + why);
   }
 }
 

@@ -10,8 +10,12 @@ namespace dd {
 /// The file's contents; throws Error naming the file when it cannot be opened.
 std::string read_text(const std::string& path);
 
-/// Replaces the file with `text` atomically (path + ".tmp", then a rename). Throws Error naming the
-/// file when it cannot be written or moved into place; the old file, if any, is left as it was.
+/// Replaces the file with `text` atomically (temporary_path(path), then a rename). Throws Error naming
+/// the file and the reason when it cannot be written or moved into place; the old file, if any, is
+/// left as it was.
 void write_text(const std::string& path, const std::string& text);
+
+/// The temporary file write_text() writes first: path + ".tmp." + this process's id.
+std::string temporary_path(const std::string& path);
 
 }  // namespace dd

@@ -35,7 +35,7 @@ TEST_F(TextFile, WritesReadsAndReplaces) {
 TEST_F(TextFile, AFailedWriteLeavesTheOldFileAndNamesIt) {
   const std::string path = (dir / "cell.json").string();
   write_text(path, "good\n");
-  fs::create_directories(path + ".tmp");  // the temporary file cannot be created
+  fs::create_directories(temporary_path(path));  // the temporary file cannot be created
   try {
     write_text(path, "new\n");
     FAIL() << "expected an error";
@@ -44,6 +44,20 @@ TEST_F(TextFile, AFailedWriteLeavesTheOldFileAndNamesIt) {
   }
   EXPECT_EQ(read_text(path), "good\n");
   EXPECT_THROW(read_text((dir / "missing.json").string()), Error);
+}
+
+TEST_F(TextFile, AFailedRenameSaysWhy) {
+  const std::string path = (dir / "taken").string();
+  fs::create_directories(path + "/inside");  // a folder that is not empty where the file should go
+  try {
+    write_text(path, "x\n");
+    FAIL() << "expected an error";
+  } catch (const Error& e) {
+    const std::string what = e.what();
+    EXPECT_NE(what.find(path + ": could not move into place: "), std::string::npos) << what;
+    EXPECT_EQ(what.find("Success"), std::string::npos) << "the reason was overwritten: " << what;
+  }
+  EXPECT_FALSE(fs::exists(temporary_path(path)));
 }
 
 TEST(ProgressBar, TimeLeftCountsOnlyTheUnitsDoneSinceTheBarStarted) {

@@ -73,6 +73,15 @@ TEST(Plot, LinesRiseWhereTheirValuesRise) {
   ASSERT_GE(last_row, 0);
   EXPECT_LT(last_row, first_row - 100);
   EXPECT_GT(count_color(img, {0, 0, 255}), 20);
+  // the legend sits below the plot, one row per series, where it hides no line
+  EXPECT_EQ(img.height, p.height + 2 * 18 + 10);
+  int legend_red = 0;
+  for (int y = p.height; y < img.height; ++y)
+    for (int x = 0; x < img.width; ++x) {
+      const uint8_t* px = &img.rgba[(static_cast<size_t>(y) * img.width + x) * 4];
+      legend_red += px[0] > 240 && px[1] < 20 && px[2] < 20;
+    }
+  EXPECT_GT(legend_red, 10);
 }
 
 }  // namespace dd::ui

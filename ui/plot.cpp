@@ -2,6 +2,7 @@
 
 #include <opencv2/imgproc.hpp>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 
@@ -125,7 +126,10 @@ Image draw_bars(const BarPanel& p) {
 }
 
 Image draw_lines(const LinePanel& p) {
-  cv::Mat m(p.height, p.width, CV_8UC3, cv::Scalar(255, 255, 255));
+  // the legend goes below the plot, a row per named series, so it never hides a line
+  const int named = static_cast<int>(std::count_if(p.series.begin(), p.series.end(), [](const LineSeries& s) { return !s.name.empty(); }));
+  const int legend_h = named > 0 ? 18 * named + 10 : 0;
+  cv::Mat m(p.height + legend_h, p.width, CV_8UC3, cv::Scalar(255, 255, 255));
   const int left = 80, right = 20, top = 50, bottom = 60;
   const cv::Rect area(left, top, p.width - left - right, p.height - top - bottom);
   double x0 = INFINITY, x1 = -INFINITY, y0 = INFINITY, y1 = -INFINITY;
@@ -168,8 +172,8 @@ Image draw_lines(const LinePanel& p) {
     if (pts.size() > 1) cv::polylines(m, pts, false, scalar(s.color), 2, cv::LINE_AA);
     for (const auto& q : pts) cv::circle(m, q, 4, scalar(s.color), cv::FILLED, cv::LINE_AA);
   }
-  // legend, top left inside the plot
-  int ly = area.y + 16;
+  // legend, below the x axis label
+  int ly = p.height + 10;
   for (const auto& s : p.series) {
     if (s.name.empty()) continue;
     cv::line(m, {area.x + 10, ly - 4}, {area.x + 30, ly - 4}, scalar(s.color), 2, cv::LINE_AA);
