@@ -21,12 +21,14 @@
 
 #include <fcntl.h>
 #include <signal.h>
+#include <sys/file.h>
 #include <sys/prctl.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
 #include "core/text_file.h"
 #include "core/dataset.h"
+#include "core/ensemble.h"
 #include "core/evaluation.h"
 #include "core/event_log.h"
 #include "core/progress.h"
@@ -58,7 +60,8 @@ std::pair<double, double> mean_std(const std::vector<double>& v) {
 
 double mean(const std::vector<double>& v) { return mean_std(v).first; }
 
-// Expert demonstrations for training without a session (RQ1).
+}  // namespace
+
 std::vector<Episode> collect_demos(const std::string& task, const std::string& mode, int n, uint64_t seed) {
   auto env = make_env(task);
   auto expert = make_expert(task, mode);
@@ -69,6 +72,8 @@ std::vector<Episode> collect_demos(const std::string& task, const std::string& m
   }
   return out;
 }
+
+namespace {
 
 // "success 12, held 3, not grasped 1": how the rollouts ended, most frequent first.
 std::string outcome_counts(const std::vector<RolloutResult>& results) {
@@ -127,9 +132,35 @@ DaggerRunResult run_dagger(const ExperimentConfig& config, const DaggerRunOption
   make_dirs(o.out + "/checkpoints");
   DaggerRunResult result;
   result.dataset = o.out + "/dataset.hdf5";
-  if (fs::exists(result.dataset))
+  const std::string config_text = to_json_text(config) + "\n", resume_root = o.out + "/resume", log_path = o.out + "/queries.jsonl";
+  // A resume point: out/resume/latest.json names the folder of the latest complete one.
+  nlohmann::json resume;
+  if (fs::exists(resume_root + "/latest.json")) {
+    if (!fs::exists(o.out + "/config.json") || read_text(o.out + "/config.json") != config_text)
+      throw Error(o.out + "/config.json: a stopped run with another config is in this folder (its resume point is in " + resume_root +
+                  "); remove the folder or choose another --out");
+    try {
+      resume = nlohmann::json::parse(read_text(resume_root + "/latest.json"));
+      resume.at("update").get<int>();
+      resume.at("log_bytes").get<uintmax_t>();
+    } catch (const nlohmann::json::exception& e) {
+      throw Error(resume_root + "/latest.json: not a resume point (" + std::string(e.what()) + ")");
+    }
+  } else if (fs::exists(result.dataset)) {
     throw Error(result.dataset + ": already exists; a run never mixes its data into an earlier run's (choose another --out)");
-  write_text(o.out + "/config.json", to_json_text(config) + "\n");
+  }
+  const std::string resume_dir = resume.is_null() ? "" : resume_root + "/update_" + std::to_string(resume["update"].get<int>());
+  if (!resume.is_null()) {
+    // the data set and the query log as they stood at the resume point
+    if (fs::exists(resume_dir + "/dataset.hdf5")) {
+      fs::copy_file(resume_dir + "/dataset.hdf5", result.dataset + ".resumed", fs::copy_options::overwrite_existing);
+      fs::rename(result.dataset + ".resumed", result.dataset);
+    } else {
+      fs::remove(result.dataset);
+    }
+    if (fs::exists(log_path)) fs::resize_file(log_path, resume["log_bytes"].get<uintmax_t>());
+  }
+  write_text(o.out + "/config.json", config_text);
 
   auto env = make_env(config.task);
   auto expert = make_expert(config.task, config.expert);
@@ -140,7 +171,38 @@ DaggerRunResult run_dagger(const ExperimentConfig& config, const DaggerRunOption
   // by the epoch rule on what they have, and so does BC on its N_f demonstrations.
   if (!method->gated() && !train.from_scratch) train.steps *= bc_budget_factor(config.dagger);
   DaggerSession session(*env, *expert, *method, config.dagger, train, &writer);
-  EventLog log(o.out + "/queries.jsonl");
+  if (!resume.is_null()) {
+    method->load_state(resume_dir + "/method");
+    session.load_state(resume_dir + "/session");
+    result.queries = resume.at("queries").get<int>();
+    result.timeouts = resume.at("timeouts").get<int>();
+    result.iteration_inference_s = resume.at("iteration_inference_s").get<std::vector<double>>();
+    for (const UpdateReport& r : session.reports()) {
+      result.iteration_train_s.push_back(r.train_s);
+      result.iteration_threshold_s.push_back(r.threshold_s);
+    }
+    result.resumed_from_update = session.updates();
+    if (!o.quiet) fmt::print(stderr, "resuming {} after update {} (episode {})\n", o.out, session.updates(), session.episode());
+  }
+  // After an update: everything continuing needs, in a folder of its own, then latest.json pointing at
+  // it (a run killed while saving keeps the previous point), then the older points go.
+  auto save_resume_point = [&] {
+    const int n = session.updates();
+    const std::string dir = resume_root + "/update_" + std::to_string(n);
+    fs::remove_all(dir);
+    method->save_state(dir + "/method");
+    session.save_state(dir + "/session");
+    if (fs::exists(result.dataset)) fs::copy_file(result.dataset, dir + "/dataset.hdf5");
+    const nlohmann::json point{{"update", n},
+                               {"log_bytes", fs::exists(log_path) ? fs::file_size(log_path) : 0},
+                               {"queries", result.queries},
+                               {"timeouts", result.timeouts},
+                               {"iteration_inference_s", result.iteration_inference_s}};
+    write_text(resume_root + "/latest.json", point.dump(2) + "\n");
+    for (const auto& entry : fs::directory_iterator(resume_root))
+      if (entry.is_directory() && entry.path().filename() != "update_" + std::to_string(n)) fs::remove_all(entry.path());
+  };
+  EventLog log(log_path);
   session.add_observer([&log](const SessionEvent& e) { log(e); });
   session.add_observer([&](const SessionEvent& e) {
     if (e.kind == EventKind::kQuery) ++result.queries;
@@ -172,10 +234,19 @@ DaggerRunResult run_dagger(const ExperimentConfig& config, const DaggerRunOption
       if (!o.quiet)
         fmt::print(stderr, "update {}: {} pairs, train {:.1f} s, threshold {:.4g} set in {:.1f} s\n", session.updates(), r.pairs,
                    r.train_s, r.threshold, r.threshold_s);
+      if (!session.done()) {
+        save_resume_point();
+        if (session.updates() == o.stop_after_update) {
+          result.stopped = true;
+          result.updates = session.updates();
+          return result;
+        }
+      }
       continue;
     }
     session.tick();
   }
+  fs::remove_all(resume_root);
   result.episodes = session.episode();
   result.expert_demos = session.expert_demos();
   result.interventions = session.interventions();
@@ -578,6 +649,51 @@ void run_cells_in_processes(const std::vector<EvalCell>& cells, int jobs, const 
 
 }  // namespace
 
+std::vector<std::string> rq1_policies(const ExperimentConfig& c, int members, const std::vector<Episode>& demos, const std::string& dir,
+                                      const std::string& label) {
+  make_dirs(dir);
+  // The ensemble's members train on what Ensemble-DAgger's own update would give them; member 0 on
+  // all the demonstrations, from the seed Diff-DAgger's policy starts from.
+  PolicyEnsemble ensemble(c.policy, c.method.members, c.dagger.seed);
+  const std::vector<std::vector<Episode>> data = ensemble.member_data(demos);
+  const TrainConfig train = rq1_training(c);
+  std::vector<std::string> paths;
+  for (int i = 0; i < members; ++i) paths.push_back(dir + "/member_" + std::to_string(i) + ".pt");
+  // One lock file per member: cells running side by side (eval --jobs) take the members nobody is
+  // training, then wait for the others. A member is written when its training ends, so a stopped
+  // cell loses at most the member in progress.
+  auto train_member = [&](int i) {
+    ProgressBar bar(fmt::format("{} member {} of {} train", label, i + 1, c.method.members), "loss");
+    ensemble.train_member(i, data[static_cast<size_t>(i)], train, bar.fn());
+    ensemble.member(i).save(paths[static_cast<size_t>(i)]);
+  };
+  auto with_lock = [&](int i, bool wait) {
+    const std::string lock_path = paths[static_cast<size_t>(i)] + ".lock";
+    const int fd = ::open(lock_path.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644);
+    if (fd < 0) throw Error(lock_path + ": could not open the lock file: " + std::strerror(errno));
+    if (::flock(fd, LOCK_EX | (wait ? 0 : LOCK_NB)) != 0) {
+      ::close(fd);
+      return false;
+    }
+    try {
+      if (!fs::exists(paths[static_cast<size_t>(i)])) train_member(i);  // a neighbour may have finished it meanwhile
+    } catch (...) {
+      ::close(fd);
+      throw;
+    }
+    ::close(fd);  // releases the lock
+    return true;
+  };
+  std::vector<int> waiting;
+  for (int i = 0; i < members; ++i)
+    if (!fs::exists(paths[static_cast<size_t>(i)]) && !with_lock(i, false)) waiting.push_back(i);
+  for (int i : waiting) {
+    fmt::print(stderr, "{}: member {} is being trained by another cell; waiting for it\n", label, i + 1);
+    with_lock(i, true);
+  }
+  return paths;
+}
+
 void set_command_line(int argc, char** argv) {
   command_line_store().assign(argv, argv + argc);
 }
@@ -685,10 +801,10 @@ void run_eval(const ExperimentConfig& config, const EvalOptions& o) {
     const uint64_t eval_seed = eval_seed_of(s);
     auto m = make_method(name, c.policy, c.method, c.dagger.seed);
     const auto demos = collect_demos(c.task, c.expert, c.rq1_demos, c.dagger.seed);
-    {
-      ProgressBar bar(fmt::format("[seed {}] RQ1 {:8} train", s, name), "loss");
-      m->update(demos, {}, rq1_training(c), bar.fn());
-    }
+    // The methods' RQ1 policies are one ensemble per seed, trained once (Diff-DAgger's is member 0).
+    m->adopt(rq1_policies(c, name == "diff" ? 1 : c.method.members, demos, o.out + "/rq1_policies/seed" + std::to_string(s),
+                          fmt::format("[seed {}] RQ1", s)),
+             demos, {});
     double risk_data_s = 0;
     if (name == "thrifty") {
       // The critic learns from robot rollouts too: roll out, then refit the critic alone (the
@@ -716,7 +832,8 @@ void run_eval(const ExperimentConfig& config, const EvalOptions& o) {
     ro.method = name;
     ro.out = o.out + "/runs/" + name + "_seed" + std::to_string(s);
     ro.quiet = true;
-    fs::remove_all(ro.out);
+    // a cell stopped mid-run continues from its last update's resume point; anything else starts afresh
+    if (!fs::exists(ro.out + "/resume/latest.json")) fs::remove_all(ro.out);
     std::unique_ptr<Method> trained;
     fmt::print(stderr, "[seed {}] RQ2 {:8} interactive learning to {} demonstrations...\n", s, name, d.final_demos);
     const DaggerRunResult run = run_dagger(c, ro, &trained);
@@ -877,7 +994,9 @@ void run_eval(const ExperimentConfig& config, const EvalOptions& o) {
                     "They are trained like BC ({}). "
                     "Positive = the rule would have asked; actual positive = the episode failed. TP, FP, TN, FN are summed over seeds; "
                     "n/a: undefined (no failed rollout for TPR, no successful one for TNR). Ensemble-DAgger and Thrifty-DAgger act with "
-                    "the member trained on all the demonstrations; the other members are bootstrapped.\n\n"
+                    "the member trained on all the demonstrations; the other members are bootstrapped. The three methods' policies are "
+                    "one ensemble per seed, trained once: Diff-DAgger's is its member 0, the very policy its own update would train "
+                    "(same initial weights, data and minibatches), so the methods differ only in the query rule.\n\n"
                     "| Task | N_D | Method | TPR | TNR | F1 | Acc | TP | FP | TN | FN | rollout success |\n"
                     "|---|---|---|---|---|---|---|---|---|---|---|---|\n",
                     config.rq1_demos,

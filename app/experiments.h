@@ -9,6 +9,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "core/chunks.h"
 #include "core/task_config.h"
 
 namespace dd::app {
@@ -21,6 +22,7 @@ struct DaggerRunOptions {
   std::string method = "diff";   // diff | ensemble | thrifty | bc
   std::string out;               // folder: dataset.hdf5, checkpoints/, queries.jsonl, config.json
   bool quiet = false;            // no progress bars
+  int stop_after_update = 0;     // stop after this update's resume point, as a stopped run would (0: run to the end)
 };
 
 struct DaggerRunResult {
@@ -28,6 +30,8 @@ struct DaggerRunResult {
   double train_s = 0, threshold_s = 0, inference_s = 0;  // summed over the run
   std::vector<double> iteration_train_s, iteration_threshold_s, iteration_inference_s;
   std::string dataset;
+  bool stopped = false;          // stopped at stop_after_update; the same call continues the run
+  int resumed_from_update = 0;   // the resume point this run continued from (0: a fresh run)
 };
 
 /// Policy updates continue from the previous weights, so a DAgger run's final policy has seen this
@@ -39,8 +43,24 @@ int bc_budget_factor(const DaggerConfig& dagger);
 /// good the policy is.
 TrainConfig rq1_training(const ExperimentConfig& config);
 
+/// `n` successful demonstrations of `task`'s expert in `mode`, for training without a session (RQ1,
+/// `train` without a data set); episode e starts from seed * 1000033 + 777 + e.
+std::vector<Episode> collect_demos(const std::string& task, const std::string& mode, int n, uint64_t seed);
+
+/// eval's RQ1 policies for one seed: the first `members` members of the ensemble Ensemble-DAgger's
+/// update would train on `demos` (member 0 is the policy Diff-DAgger's update would train, so one
+/// training serves every method). Trains the members missing from `dir` (member_<i>.pt), one at a
+/// time, each saved as it ends; cells in other processes share the work through lock files. Returns
+/// the checkpoints' paths.
+std::vector<std::string> rq1_policies(const ExperimentConfig& config, int members, const std::vector<Episode>& demos,
+                                      const std::string& dir, const std::string& label);
+
 /// Runs Algorithm 1 to N_f expert demonstrations; when `method_out` is given, the trained method is
 /// kept there for evaluation. Throws dd::Error on bad input.
+/// After every update but the last, the run leaves a resume point in out/resume (the method's state,
+/// the session's, the data set and the query log as they stood); a stopped run called again with the
+/// same config and method continues from the latest one and ends as an unstopped run would have. A
+/// finished run removes it.
 DaggerRunResult run_dagger(const ExperimentConfig& config, const DaggerRunOptions& options,
                            std::unique_ptr<Method>* method_out = nullptr);
 

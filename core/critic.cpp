@@ -2,7 +2,10 @@
 
 #include <torch/torch.h>
 
+#include <filesystem>
+
 #include "core/config.h"
+#include "core/nn/archive_io.h"
 #include "core/normalizer.h"
 
 namespace dd {
@@ -11,6 +14,13 @@ namespace {
 torch::nn::Sequential make_mlp(int in, int hidden) {
   return torch::nn::Sequential(torch::nn::Linear(in, hidden), torch::nn::ReLU(), torch::nn::Linear(hidden, hidden),
                                torch::nn::ReLU(), torch::nn::Linear(hidden, 1), torch::nn::Sigmoid());
+}
+
+torch::Tensor vec_tensor(const Vec& v) { return torch::from_blob(const_cast<float*>(v.data()), {v.size()}, torch::kFloat32).clone(); }
+
+Vec tensor_vec(const torch::Tensor& t) {
+  const torch::Tensor c = t.contiguous().to(torch::kFloat32);
+  return Eigen::Map<const Vec>(c.data_ptr<float>(), c.numel());
 }
 
 torch::Tensor to_tensor(const Mat& m) {
@@ -117,6 +127,46 @@ std::vector<float> RiskCritic::q(const Mat& obs, const Mat& actions) const {
   const torch::Tensor x = impl_->inputs(obs, actions);
   const torch::Tensor q = torch::min(impl_->q1->forward(x), impl_->q2->forward(x)).contiguous();
   return std::vector<float>(q.data_ptr<float>(), q.data_ptr<float>() + q.numel());
+}
+
+void RiskCritic::save(const std::string& path) const {
+  torch::serialize::OutputArchive archive, q1, q2;
+  archive.write("format", c10::IValue(std::string("diffdagger-critic")));
+  archive.write("obs_scale", vec_tensor(impl_->obs_norm.scale()));
+  archive.write("obs_offset", vec_tensor(impl_->obs_norm.offset()));
+  archive.write("act_scale", vec_tensor(impl_->act_norm.scale()));
+  archive.write("act_offset", vec_tensor(impl_->act_norm.offset()));
+  impl_->q1->save(q1);
+  impl_->q2->save(q2);
+  archive.write("q1", q1);
+  archive.write("q2", q2);
+  save_archive_atomically(archive, path, "critic");
+}
+
+void RiskCritic::load(const std::string& path) {
+  if (!std::filesystem::exists(path)) throw Error(path + ": no such critic file");
+  torch::serialize::InputArchive archive, q1, q2;
+  try {
+    archive.load_from(path);
+    c10::IValue format;
+    if (!archive.try_read("format", format) || !format.isString() || format.toStringRef() != "diffdagger-critic")
+      throw Error(path + ": not a diffdagger critic file (missing field 'format')");
+    torch::Tensor os, oo, as, ao;
+    archive.read("obs_scale", os);
+    archive.read("obs_offset", oo);
+    archive.read("act_scale", as);
+    archive.read("act_offset", ao);
+    if (os.numel() != impl_->obs_dim || oo.numel() != impl_->obs_dim || as.numel() != impl_->action_dim || ao.numel() != impl_->action_dim)
+      throw Error(path + ": normaliser sizes (fields obs_scale, act_scale) do not match this critic's observations and actions");
+    archive.read("q1", q1);
+    archive.read("q2", q2);
+    impl_->q1->load(q1);
+    impl_->q2->load(q2);
+    impl_->obs_norm = Normalizer::from_params(tensor_vec(os), tensor_vec(oo));
+    impl_->act_norm = Normalizer::from_params(tensor_vec(as), tensor_vec(ao));
+  } catch (const c10::Error& e) {
+    throw Error(path + ": not a readable critic of this size (truncated, corrupt or another network): " + first_line(e.what()));
+  }
 }
 
 }  // namespace dd

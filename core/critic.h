@@ -8,6 +8,7 @@
 #pragma once
 
 #include <memory>
+#include <string>
 #include <vector>
 
 #include "core/dataset.h"
@@ -37,6 +38,12 @@ class RiskCritic {
   float train(const std::vector<RecordedEpisode>& episodes);
   /// min(Q1, Q2) for each (obs row, action row), in [0, 1].
   std::vector<float> q(const Mat& obs, const Mat& actions) const;
+
+  /// Writes the twins' weights and the normalisers to one file (atomically), so that a stopped run
+  /// continues with the critic it had: train() goes on from these weights. Throws Error naming the file.
+  void save(const std::string& path) const;
+  /// Reads save()'s file; throws Error naming the file when it is missing, corrupt or of other sizes.
+  void load(const std::string& path);
 
  private:
   struct Impl;

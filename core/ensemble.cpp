@@ -21,8 +21,7 @@ void PolicyEnsemble::reinitialize(uint64_t seed) {
   for (int i = 0; i < size(); ++i) members_[static_cast<size_t>(i)]->reinitialize(seed + static_cast<uint64_t>(i));
 }
 
-std::vector<TrainStats> PolicyEnsemble::train(const std::vector<Episode>& episodes, const TrainConfig& config,
-                                              const ProgressFn& progress) {
+std::vector<std::vector<Episode>> PolicyEnsemble::member_data(const std::vector<Episode>& episodes) const {
   if (episodes.empty()) throw Error("ensemble: no episodes to train on");
   // Every member's data, drawn first and in member order: the same resamples however they train.
   std::mt19937_64 rng(seed_ ^ 0xb0075742ull);
@@ -33,32 +32,43 @@ std::vector<TrainStats> PolicyEnsemble::train(const std::vector<Episode>& episod
     data[m].reserve(episodes.size());
     for (size_t i = 0; i < episodes.size(); ++i) data[m].push_back(episodes[pick(rng)]);
   }
+  return data;
+}
+
+TrainStats PolicyEnsemble::train_member(int m, const std::vector<Episode>& member_episodes, const TrainConfig& config,
+                                        const ProgressFn& progress) {
+  TrainConfig c = config;
+  c.seed = config.seed + static_cast<uint64_t>(m) * 7919;
+  const int horizon = members_[0]->config().horizon;
+  return dd::train(*members_[static_cast<size_t>(m)], ChunkDataset::from_episodes(member_episodes, horizon), c, progress);
+}
+
+std::vector<TrainStats> PolicyEnsemble::train(const std::vector<Episode>& episodes, const TrainConfig& config,
+                                              const ProgressFn& progress) {
+  const std::vector<std::vector<Episode>> data = member_data(episodes);
   const int horizon = members_[0]->config().horizon;
   const int per_member = config.steps_for(ChunkDataset::from_episodes(episodes, horizon).size());
   const int total = per_member * size();
   std::vector<TrainStats> stats(members_.size());
   std::vector<int> done(members_.size(), 0);
   std::mutex progress_mutex;
-  auto train_member = [&](int64_t m) {
-    TrainConfig c = config;
-    c.seed = config.seed + static_cast<uint64_t>(m) * 7919;
+  auto train_one = [&](int64_t m) {
     const ProgressFn member_progress = progress ? ProgressFn([&, m](int steps, int, double loss) {
       std::lock_guard<std::mutex> lock(progress_mutex);
       done[static_cast<size_t>(m)] = steps;
       progress(std::min(total, std::accumulate(done.begin(), done.end(), 0)), total, loss);
     }) : ProgressFn{};
-    stats[static_cast<size_t>(m)] =
-        dd::train(*members_[static_cast<size_t>(m)], ChunkDataset::from_episodes(data[static_cast<size_t>(m)], horizon), c, member_progress);
+    stats[static_cast<size_t>(m)] = train_member(static_cast<int>(m), data[static_cast<size_t>(m)], config, member_progress);
   };
   if (parallel_members_ && at::get_num_threads() > 1) {
     // One member per thread, one thread inside each: a training step uses two threads poorly, so
     // two members side by side get through almost twice the steps. Inside the parallel region
     // torch's operators run single-threaded, so each member trains as it would with --threads 1.
     at::parallel_for(0, size(), 1, [&](int64_t begin, int64_t end) {
-      for (int64_t m = begin; m < end; ++m) train_member(m);
+      for (int64_t m = begin; m < end; ++m) train_one(m);
     });
   } else {
-    for (int64_t m = 0; m < size(); ++m) train_member(m);
+    for (int64_t m = 0; m < size(); ++m) train_one(m);
   }
   return stats;
 }

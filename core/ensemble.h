@@ -29,6 +29,14 @@ class PolicyEnsemble {
   std::vector<TrainStats> train(const std::vector<Episode>& episodes, const TrainConfig& config,
                                 const ProgressFn& progress = {});
 
+  /// What each member trains on (train() draws the same): member 0 all of `episodes`, member i its
+  /// own bootstrap resample, drawn from the ensemble's seed.
+  std::vector<std::vector<Episode>> member_data(const std::vector<Episode>& episodes) const;
+  /// Trains member `m` alone on its data (member_data(...)[m]), as train() would: for callers that
+  /// train members in separate processes or keep each one as it finishes.
+  TrainStats train_member(int m, const std::vector<Episode>& member_episodes, const TrainConfig& config,
+                          const ProgressFn& progress = {});
+
   /// Per observation row (B x obs_dim): each member generates one chunk; the result is the
   /// standard deviation across members of every chunk element, averaged over time and action
   /// dimensions (raw action units).

@@ -2,12 +2,17 @@
 
 #include <chrono>
 #include <cmath>
+#include <filesystem>
+
+#include <nlohmann/json.hpp>
 
 #include "core/ensemble.h"
 #include "core/gate.h"
 #include "core/policy.h"
+#include "core/text_file.h"
 #include "core/trainer.h"
 
+#include <fmt/format.h>
 #include <spdlog/spdlog.h>
 
 namespace dd {
@@ -15,6 +20,10 @@ namespace {
 
 using Clock = std::chrono::steady_clock;
 double since(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
+
+// Thresholds are infinite before the first update; JSON has no infinity, so they are written as null.
+nlohmann::json number_or_null(float v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(nullptr); }
+float number_or_inf(const nlohmann::json& j) { return j.is_null() ? INFINITY : j.get<float>(); }
 
 class DiffMethod : public Method {
  public:
@@ -33,15 +42,18 @@ class DiffMethod : public Method {
     if (train_config.from_scratch && updates_ > 0) policy_.reinitialize(seed_ + 7919 * updates_);
     r.final_loss = train(policy_, data, train_config, progress).last_mean();
     r.train_s = since(t);
-    t = Clock::now();
-    const ChunkDataset cal = data.subset(config_.calibration_pairs, seed_ + ++updates_);
-    const LossQuantile q = policy_.loss_quantile(cal, config_.alpha, seed_ * 31 + updates_, config_.loss_samples,
-                                                 config_.screen_threshold);
-    threshold_ = q.threshold;
-    spdlog::debug("diff: threshold {:.5f} over {} pairs, {} of them at {} rows (screened at {})", q.threshold, q.pairs, q.refined,
-                  config_.loss_samples, q.screen_samples);
-    r.threshold_s = since(t);
-    r.threshold = threshold_;
+    set_threshold(data, r);
+    return r;
+  }
+
+  UpdateReport adopt(const std::vector<std::string>& checkpoints, const std::vector<Episode>& expert,
+                     const std::vector<RecordedEpisode>&) override {
+    if (checkpoints.empty()) throw Error("diff: adopt needs a policy checkpoint");
+    policy_.load(checkpoints.front());
+    UpdateReport r;
+    const ChunkDataset data = ChunkDataset::from_episodes(expert, policy_.config().horizon);
+    r.pairs = data.size();
+    set_threshold(data, r);
     return r;
   }
 
@@ -56,6 +68,28 @@ class DiffMethod : public Method {
   }
   float threshold() const override { return threshold_; }
   void save(const std::string& dir) const override { policy_.save(dir + "/policy.pt"); }
+
+ private:
+  // The alpha-quantile of the expected loss over the training pairs (a subset when calibration_pairs).
+  void set_threshold(const ChunkDataset& data, UpdateReport& r) {
+    const auto t = Clock::now();
+    const ChunkDataset cal = data.subset(config_.calibration_pairs, seed_ + ++updates_);
+    const LossQuantile q = policy_.loss_quantile(cal, config_.alpha, seed_ * 31 + updates_, config_.loss_samples,
+                                                 config_.screen_threshold);
+    threshold_ = q.threshold;
+    spdlog::debug("diff: threshold {:.5f} over {} pairs, {} of them at {} rows (screened at {})", q.threshold, q.pairs, q.refined,
+                  config_.loss_samples, q.screen_samples);
+    r.threshold_s = since(t);
+    r.threshold = threshold_;
+  }
+
+ protected:
+  nlohmann::json state(const std::string& /*dir*/) const override { return {{"updates", updates_}, {"threshold", number_or_null(threshold_)}}; }
+  void restore(const nlohmann::json& j, const std::string& dir) override {
+    policy_.load(dir + "/policy.pt");
+    updates_ = j.at("updates").get<uint64_t>();
+    threshold_ = number_or_inf(j.at("threshold"));
+  }
 
  private:
   DiffusionPolicy policy_;
@@ -83,12 +117,19 @@ class EnsembleMethod : public Method {
     const auto stats = ensemble_.train(expert, train_config, progress);
     r.final_loss = stats.front().last_mean();
     r.train_s = since(t);
-    t = Clock::now();
-    // The ensemble's threshold needs every member to sample at every calibration pair.
-    const ChunkDataset cal = data.subset(config_.calibration_pairs, seed_ + ++updates_);
-    threshold_ = quantile(ensemble_.action_variance(cal.obs, seed_ * 31 + updates_), config_.alpha);
-    r.threshold_s = since(t);
-    r.threshold = threshold_;
+    set_threshold(data, r);
+    return r;
+  }
+
+  UpdateReport adopt(const std::vector<std::string>& checkpoints, const std::vector<Episode>& expert,
+                     const std::vector<RecordedEpisode>&) override {
+    if (static_cast<int>(checkpoints.size()) != ensemble_.size())
+      throw Error(fmt::format("{}: adopt needs one checkpoint per member ({}), got {}", name(), ensemble_.size(), checkpoints.size()));
+    for (int i = 0; i < ensemble_.size(); ++i) ensemble_.member(i).load(checkpoints[static_cast<size_t>(i)]);
+    UpdateReport r;
+    const ChunkDataset data = ChunkDataset::from_episodes(expert, ensemble_.member(0).config().horizon);
+    r.pairs = data.size();
+    set_threshold(data, r);
     return r;
   }
 
@@ -107,6 +148,21 @@ class EnsembleMethod : public Method {
   }
 
  protected:
+  // The alpha-quantile of the members' spread over the training pairs: every member samples at every pair.
+  void set_threshold(const ChunkDataset& data, UpdateReport& r) {
+    const auto t = Clock::now();
+    const ChunkDataset cal = data.subset(config_.calibration_pairs, seed_ + ++updates_);
+    threshold_ = quantile(ensemble_.action_variance(cal.obs, seed_ * 31 + updates_), config_.alpha);
+    r.threshold_s = since(t);
+    r.threshold = threshold_;
+  }
+  nlohmann::json state(const std::string& /*dir*/) const override { return {{"updates", updates_}, {"threshold", number_or_null(threshold_)}}; }
+  void restore(const nlohmann::json& j, const std::string& dir) override {
+    for (int i = 0; i < ensemble_.size(); ++i) ensemble_.member(i).load(dir + "/member_" + std::to_string(i) + ".pt");
+    updates_ = j.at("updates").get<uint64_t>();
+    threshold_ = number_or_inf(j.at("threshold"));
+  }
+
   PolicyEnsemble ensemble_;
   MethodConfig config_;
   uint64_t seed_;
@@ -129,6 +185,15 @@ class ThriftyMethod : public EnsembleMethod {
     return r;
   }
 
+  UpdateReport adopt(const std::vector<std::string>& checkpoints, const std::vector<Episode>& expert,
+                     const std::vector<RecordedEpisode>& robot) override {
+    UpdateReport r = EnsembleMethod::adopt(checkpoints, expert, robot);
+    const auto [train_s, threshold_s] = fit_risk(expert, robot);
+    r.train_s += train_s;
+    r.threshold_s += threshold_s;
+    return r;
+  }
+
   double refit_risk(const std::vector<Episode>& expert, const std::vector<RecordedEpisode>& robot) override {
     const auto [train_s, threshold_s] = fit_risk(expert, robot);
     return train_s + threshold_s;
@@ -139,6 +204,20 @@ class ThriftyMethod : public EnsembleMethod {
     m.risk_q = critic_.q(obs.transpose(), m.chunk.row(0)).front();
     m.violation = m.violation || m.risk_q < gamma_;
     return m;
+  }
+
+ protected:
+  nlohmann::json state(const std::string& dir) const override {
+    nlohmann::json j = EnsembleMethod::state(dir);
+    j["gamma"] = gamma_;
+    if (updates_ > 0) critic_.save(dir + "/critic.pt");
+    return j;
+  }
+  void restore(const nlohmann::json& j, const std::string& dir) override {
+    EnsembleMethod::restore(j, dir);
+    gamma_ = j.at("gamma").get<float>();
+    // before the first update the critic has never trained and its file is not written
+    if (updates_ > 0) critic_.load(dir + "/critic.pt");
   }
 
  private:
@@ -217,6 +296,23 @@ class BcMethod : public UngatedMethod {
     return r;
   }
 
+  UpdateReport adopt(const std::vector<std::string>& checkpoints, const std::vector<Episode>& expert,
+                     const std::vector<RecordedEpisode>&) override {
+    if (checkpoints.empty()) throw Error("bc: adopt needs a policy checkpoint");
+    policy_.load(checkpoints.front());
+    trained_ = true;
+    UpdateReport r;
+    r.pairs = ChunkDataset::from_episodes(expert, policy_.config().horizon).size();
+    return r;
+  }
+
+ protected:
+  nlohmann::json state(const std::string& /*dir*/) const override { return {{"trained", trained_}}; }
+  void restore(const nlohmann::json& j, const std::string& dir) override {
+    policy_.load(dir + "/policy.pt");
+    trained_ = j.at("trained").get<bool>();
+  }
+
  private:
   const DiffusionPolicy& acting() const override { return policy_; }
   DiffusionPolicy policy_;
@@ -234,12 +330,48 @@ class PolicyActor : public UngatedMethod {
     throw Error("a borrowed policy is trained by its owner, not through Method::update");
   }
 
+
  private:
   const DiffusionPolicy& acting() const override { return policy_; }
   const DiffusionPolicy& policy_;
 };
 
 }  // namespace
+
+UpdateReport Method::adopt(const std::vector<std::string>&, const std::vector<Episode>&, const std::vector<RecordedEpisode>&) {
+  throw Error(name() + ": trains no policies of its own to adopt checkpoints into");
+}
+
+nlohmann::json Method::state(const std::string&) const { return nlohmann::json::object(); }
+
+void Method::restore(const nlohmann::json&, const std::string& dir) {
+  throw Error(dir + ": method '" + name() + "' keeps no state of its own to restore");
+}
+
+void Method::save_state(const std::string& dir) const {
+  std::filesystem::create_directories(dir);
+  save(dir);
+  nlohmann::json j = state(dir);
+  j["method"] = name();
+  write_text(dir + "/method.json", j.dump(2) + "\n");
+}
+
+void Method::load_state(const std::string& dir) {
+  const std::string path = dir + "/method.json";
+  nlohmann::json j;
+  try {
+    j = nlohmann::json::parse(read_text(path));
+  } catch (const nlohmann::json::exception& e) {
+    throw Error(path + ": not a method state (" + std::string(e.what()) + ")");
+  }
+  if (j.value("method", "") != name())
+    throw Error(path + ": field 'method' is '" + j.value("method", "") + "', this run's method is '" + name() + "'");
+  try {
+    restore(j, dir);
+  } catch (const nlohmann::json::exception& e) {
+    throw Error(path + ": " + e.what());
+  }
+}
 
 std::unique_ptr<Method> act_with(const DiffusionPolicy& policy) { return std::make_unique<PolicyActor>(policy); }
 

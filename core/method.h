@@ -20,6 +20,8 @@
 #include "core/dataset.h"
 #include "core/progress.h"
 
+#include <nlohmann/json_fwd.hpp>
+
 namespace dd {
 
 class DiffusionPolicy;
@@ -65,6 +67,14 @@ class Method {
   /// own rollouts (Thrifty's critic learns from them).
   virtual UpdateReport update(const std::vector<Episode>& expert, const std::vector<RecordedEpisode>& robot,
                               const TrainConfig& train, const ProgressFn& progress = {}) = 0;
+  /// Takes policies trained elsewhere instead of training them: loads `checkpoints` (one for diff and
+  /// BC, one per member for the ensembles, trained as update() would have trained them on `expert`),
+  /// then sets the threshold (and Thrifty's risk) as update() does after training. eval's RQ1 trains
+  /// one ensemble per seed and gives its member 0 to Diff-DAgger: the very policy diff's own update
+  /// would have trained. Throws Error naming a checkpoint that is missing or does not fit.
+  /// (The default, for methods that train nothing of their own, throws.)
+  virtual UpdateReport adopt(const std::vector<std::string>& checkpoints, const std::vector<Episode>& expert,
+                             const std::vector<RecordedEpisode>& robot);
   /// Refits what the method learns from the robot's own rollouts, without retraining its policies:
   /// Thrifty's risk critic and its threshold gamma. Returns the seconds it took (0 for the others).
   virtual double refit_risk(const std::vector<Episode>& expert, const std::vector<RecordedEpisode>& robot) {
@@ -78,6 +88,21 @@ class Method {
   virtual float threshold() const = 0;
   /// Writes the method's policy checkpoints into `dir` (policy.pt, or member_<i>.pt for ensembles).
   virtual void save(const std::string& dir) const = 0;
+  /// Writes into `dir` (created if needed) everything continuing needs: the policies as save() writes
+  /// them, and method.json with the threshold and the update count (and Thrifty's critic.pt and
+  /// gamma). load_state() on a method built with the same name, configs and seed then decides and
+  /// updates exactly as this one would. Throws Error naming the file when it cannot be written.
+  void save_state(const std::string& dir) const;
+  /// Reads save_state()'s files. Throws Error naming the file and field that is missing, corrupt, of
+  /// another method or of another network.
+  void load_state(const std::string& dir);
+
+ protected:
+  /// What save_state() writes beside the policies: files of its own in `dir`, and the returned
+  /// fields of method.json; restore() reads both back. (The defaults, for methods that learn nothing
+  /// of their own: no fields, and restoring throws.)
+  virtual nlohmann::json state(const std::string& dir) const;
+  virtual void restore(const nlohmann::json& state, const std::string& dir);
 };
 
 /// A method that acts with `policy` (borrowed, must outlive it) and never asks: for evaluating a

@@ -3,8 +3,12 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <filesystem>
+
+#include <nlohmann/json.hpp>
 
 #include "core/config.h"
+#include "core/text_file.h"
 
 namespace dd {
 
@@ -284,6 +288,93 @@ void DaggerSession::run_update(const ProgressFn& progress) {
     done_ = true;
     emit({EventKind::kDone});
   }
+}
+
+void DaggerSession::save_state(const std::string& dir) const {
+  if (in_episode_ || update_pending_)
+    throw Error("session: its state is saved between episodes with no update pending (an episode or an update is under way)");
+  std::filesystem::create_directories(dir);
+  // The data first, under a temporary name: a session.json on disk always has its data beside it.
+  const std::string data = dir + "/session.hdf5", tmp = temporary_path(data);
+  std::filesystem::remove(tmp);
+  {
+    DatasetWriter w(tmp, R"({"what": "session state"})");
+    for (const Episode& e : expert_data_) {
+      RecordedEpisode r;
+      r.obs = e.obs;
+      r.actions = e.actions;
+      r.intervention.assign(static_cast<size_t>(e.obs.rows()), 1);
+      r.success = true;
+      r.source = "expert";
+      w.append(r);
+    }
+    for (const RecordedEpisode& r : robot_data_) w.append(r);
+  }
+  std::error_code ec;
+  if (expert_data_.empty() && robot_data_.empty()) std::filesystem::remove(data, ec);  // no data yet: no file
+  else std::filesystem::rename(tmp, data, ec);
+  if (ec) throw Error(data + ": could not move the session's data into place: " + ec.message());
+  nlohmann::json reports = nlohmann::json::array();
+  for (const UpdateReport& r : reports_)
+    reports.push_back({{"train_s", r.train_s}, {"threshold_s", r.threshold_s}, {"threshold", r.threshold}, {"pairs", r.pairs},
+                       {"final_loss", r.final_loss}});
+  const nlohmann::json j{{"episode", episode_}, {"expert_demos", expert_demos_}, {"interventions", interventions_},
+                         {"updates", updates_}, {"demos_at_last_update", demos_at_last_update_},
+                         {"expert_failures", expert_failures_}, {"finishing", finishing_}, {"done", done_},
+                         {"decisions", decisions_}, {"inference_s", inference_s_}, {"reports", reports},
+                         {"expert_episodes", expert_data_.size()}, {"robot_episodes", robot_data_.size()}};
+  write_text(dir + "/session.json", j.dump(2) + "\n");
+}
+
+void DaggerSession::load_state(const std::string& dir) {
+  const std::string path = dir + "/session.json", data = dir + "/session.hdf5";
+  nlohmann::json j;
+  size_t n_expert = 0, n_robot = 0;
+  std::vector<UpdateReport> reports;
+  try {
+    j = nlohmann::json::parse(read_text(path));
+    n_expert = j.at("expert_episodes").get<size_t>();
+    n_robot = j.at("robot_episodes").get<size_t>();
+    for (const auto& r : j.at("reports")) {
+      UpdateReport u;
+      u.train_s = r.at("train_s").get<double>();
+      u.threshold_s = r.at("threshold_s").get<double>();
+      u.threshold = r.at("threshold").get<float>();
+      u.pairs = r.at("pairs").get<int>();
+      u.final_loss = r.at("final_loss").get<double>();
+      reports.push_back(u);
+    }
+    if (static_cast<int>(reports.size()) != j.at("updates").get<int>())
+      throw Error(path + ": field 'reports' holds " + std::to_string(reports.size()) + " updates, field 'updates' says " +
+                  std::to_string(j.at("updates").get<int>()));
+  } catch (const nlohmann::json::exception& e) {
+    throw Error(path + ": not a session state (" + std::string(e.what()) + ")");
+  }
+  std::vector<RecordedEpisode> episodes = n_expert + n_robot > 0 ? read_dataset(data) : std::vector<RecordedEpisode>{};
+  if (episodes.size() != n_expert + n_robot)
+    throw Error(data + ": holds " + std::to_string(episodes.size()) + " episodes, " + path + " says " + std::to_string(n_expert) +
+                " expert and " + std::to_string(n_robot) + " robot episodes");
+  expert_data_.clear();
+  robot_data_.clear();
+  for (size_t i = 0; i < episodes.size(); ++i) {
+    if (i < n_expert) expert_data_.push_back(episodes[i].all_steps());
+    else robot_data_.push_back(std::move(episodes[i]));
+  }
+  episode_ = j["episode"].get<int>();
+  expert_demos_ = j["expert_demos"].get<int>();
+  interventions_ = j["interventions"].get<int>();
+  updates_ = j["updates"].get<int>();
+  demos_at_last_update_ = j["demos_at_last_update"].get<int>();
+  expert_failures_ = j["expert_failures"].get<int>();
+  finishing_ = j["finishing"].get<bool>();
+  done_ = j["done"].get<bool>();
+  decisions_ = j["decisions"].get<uint64_t>();
+  inference_s_ = j["inference_s"].get<double>();
+  reports_ = std::move(reports);
+  if (!reports_.empty()) gate_.set_threshold(reports_.back().threshold);
+  in_episode_ = update_pending_ = provided_ = cut_short_ = false;
+  chunk_.resize(0, 0);
+  chunk_pos_ = 0;
 }
 
 }  // namespace dd

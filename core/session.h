@@ -127,6 +127,16 @@ class DaggerSession {
   /// True while the current episode has had expert steps (so it will be recorded as expert data).
   bool expert_acted() const { return expert_acted_; }
 
+  /// Writes what continuing needs into `dir` (created if needed): session.json (the counters, the
+  /// decision counter, the update reports) and session.hdf5 (the expert and robot data so far).
+  /// Allowed between episodes with no update pending, e.g. right after an update; throws Error
+  /// otherwise, or naming the file when it cannot be written.
+  void save_state(const std::string& dir) const;
+  /// Reads save_state()'s files into a session built over the same env, expert, config and a method
+  /// restored with Method::load_state(): it then goes on exactly as the saved one would have. Throws
+  /// Error naming the file and field that is missing or malformed.
+  void load_state(const std::string& dir);
+
   bool done() const { return done_; }
   bool update_pending() const { return update_pending_; }
   bool in_episode() const { return in_episode_; }

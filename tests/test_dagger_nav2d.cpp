@@ -7,9 +7,12 @@
 #include <set>
 #include <sstream>
 
+#include <nlohmann/json.hpp>
+
 #include "app/experiments.h"
 #include "core/dataset.h"
 #include "core/evaluation.h"
+#include "core/method.h"
 #include "envs/registry.h"
 
 namespace dd::app {
@@ -56,6 +59,122 @@ TEST(DaggerNav2d, DiffDaggerIsNoWorseThanBcWithTheSameExpertBudget) {
   RecordProperty("bc_success", std::to_string(success[1]));
   std::printf("quick nav2d_random: Diff-DAgger success %.2f, BC success %.2f (20 rollouts each)\n", success[0], success[1]);
   EXPECT_GE(success[0], success[1]);
+}
+
+// A DAgger run stopped after an update and run again ends where an unstopped run ends: the same
+// episodes, queries, data set, query log (timings aside) and final policies.
+TEST(DaggerNav2d, AStoppedRunContinuesFromItsLastUpdate) {
+  ExperimentConfig c = quick_config();
+  c.dagger.max_episodes = 40;  // a robot that rarely asks would otherwise roll out 150 episodes
+  c.method.critic.steps = 50;
+  const std::string root = temp_dir("dagger_resume");
+  auto events = [](const std::string& path) {  // the query log without its timings
+    std::vector<nlohmann::json> v;
+    std::ifstream f(path);
+    for (std::string line; std::getline(f, line);) {
+      nlohmann::json j = nlohmann::json::parse(line);
+      for (const char* timing : {"inference_ms", "train_s", "threshold_s"}) j.erase(timing);
+      v.push_back(j);
+    }
+    return v;
+  };
+  for (const char* method : {"thrifty", "diff"}) {
+    SCOPED_TRACE(method);
+    DaggerRunOptions o;
+    o.method = method;
+    o.quiet = true;
+    o.out = root + "/" + method + "_straight";
+    std::unique_ptr<Method> straight_method, resumed_method;
+    const DaggerRunResult straight = run_dagger(c, o, &straight_method);
+    std::printf("%s: %d episodes, %d updates, %d queries, %d time-outs\n", method, straight.episodes, straight.updates,
+                straight.queries, straight.timeouts);
+    ASSERT_GE(straight.updates, 3) << "the test stops the run after its second update";
+    EXPECT_FALSE(fs::exists(o.out + "/resume")) << "a finished run keeps no resume point";
+
+    DaggerRunOptions s = o;
+    s.out = root + "/" + method + "_stopped";
+    s.stop_after_update = 2;
+    const DaggerRunResult stopped = run_dagger(c, s);
+    EXPECT_TRUE(stopped.stopped);
+    EXPECT_TRUE(fs::exists(s.out + "/resume/latest.json"));
+    s.stop_after_update = 0;
+    const DaggerRunResult resumed = run_dagger(c, s, &resumed_method);
+    EXPECT_FALSE(resumed.stopped);
+    EXPECT_EQ(resumed.resumed_from_update, 2);
+    EXPECT_FALSE(fs::exists(s.out + "/resume"));
+
+    EXPECT_EQ(resumed.episodes, straight.episodes);
+    EXPECT_EQ(resumed.expert_demos, straight.expert_demos);
+    EXPECT_EQ(resumed.interventions, straight.interventions);
+    EXPECT_EQ(resumed.queries, straight.queries);
+    EXPECT_EQ(resumed.timeouts, straight.timeouts);
+    EXPECT_EQ(resumed.updates, straight.updates);
+    EXPECT_EQ(resumed.iteration_train_s.size(), straight.iteration_train_s.size());
+    EXPECT_EQ(resumed.iteration_inference_s.size(), straight.iteration_inference_s.size());
+    EXPECT_EQ(events(s.out + "/queries.jsonl"), events(o.out + "/queries.jsonl"));
+    const auto a = read_dataset(straight.dataset), b = read_dataset(resumed.dataset);
+    ASSERT_EQ(a.size(), b.size());
+    for (size_t i = 0; i < a.size(); ++i) {
+      EXPECT_TRUE(a[i].obs.isApprox(b[i].obs, 1e-6f) || a[i].obs == b[i].obs) << "episode " << i;
+      EXPECT_EQ(a[i].intervention, b[i].intervention) << "episode " << i;
+    }
+    EXPECT_FLOAT_EQ(resumed_method->threshold(), straight_method->threshold());
+    auto env = make_env(c.task);
+    env->reset(77);
+    const MethodDecision da = straight_method->decide(env->observation(), 5), db = resumed_method->decide(env->observation(), 5);
+    EXPECT_TRUE(da.chunk.isApprox(db.chunk, 1e-5f));
+    EXPECT_NEAR(da.score, db.score, 1e-5f * std::abs(da.score) + 1e-7f);
+    EXPECT_EQ(da.violation, db.violation);
+  }
+
+  // a stopped run's folder refuses a run with another config
+  DaggerRunOptions o;
+  o.method = "diff";
+  o.quiet = true;
+  o.out = root + "/other";
+  o.stop_after_update = 1;
+  run_dagger(c, o);
+  ExperimentConfig other = c;
+  other.train.steps += 10;
+  o.stop_after_update = 0;
+  try {
+    run_dagger(other, o);
+    ADD_FAILURE() << "a different config resumed another run";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find(o.out + "/config.json"), std::string::npos) << e.what();
+  }
+  fs::remove_all(root);
+}
+
+// eval trains one ensemble per seed for RQ1; each method adopting it must act and ask exactly as if
+// its own update had trained it (Diff-DAgger's policy is member 0).
+TEST(DaggerNav2d, SharedRq1PoliciesAreWhatEachMethodsOwnUpdateTrains) {
+  const ExperimentConfig c = quick_config();
+  const std::string dir = temp_dir("rq1_policies");
+  const auto demos = collect_demos(c.task, c.expert, c.rq1_demos, c.dagger.seed);
+  const std::vector<std::string> paths = rq1_policies(c, c.method.members, demos, dir, "test");
+  ASSERT_EQ(paths.size(), static_cast<size_t>(c.method.members));
+  const auto written = fs::last_write_time(paths[0]);
+  EXPECT_EQ(rq1_policies(c, 1, demos, dir, "test").size(), 1u);
+  EXPECT_EQ(fs::last_write_time(paths[0]), written) << "a member already trained is not trained again";
+
+  auto env = make_env(c.task);
+  // (the ensemble methods adopt every member; their update trains each through the same train_member)
+  for (const char* name : {"diff"}) {
+    SCOPED_TRACE(name);
+    auto own = make_method(name, c.policy, c.method, c.dagger.seed);
+    auto adopted = make_method(name, c.policy, c.method, c.dagger.seed);
+    own->update(demos, {}, rq1_training(c));
+    adopted->adopt(std::string(name) == "diff" ? std::vector<std::string>{paths[0]} : paths, demos, {});
+    EXPECT_FLOAT_EQ(adopted->threshold(), own->threshold());
+    for (uint64_t seed : {3u, 11u}) {
+      env->reset(seed);
+      const MethodDecision a = own->decide(env->observation(), seed), b = adopted->decide(env->observation(), seed);
+      EXPECT_TRUE(a.chunk.isApprox(b.chunk, 1e-5f)) << "seed " << seed;
+      EXPECT_NEAR(a.score, b.score, 1e-5f * std::abs(a.score) + 1e-8f) << "seed " << seed;
+    }
+  }
+  fs::remove_all(dir);
 }
 
 TEST(DaggerNav2d, QuickEvaluationWritesEveryFile) {
