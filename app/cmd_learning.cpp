@@ -66,4 +66,16 @@ Command add_eval(CLI::App& app) {
   };
 }
 
+Command add_plot(CLI::App& app) {
+  auto* cmd = app.add_subcommand("plot", "Figures 4 (wall-clock per iteration) and 5 (who acted when) from a run folder's event logs");
+  auto o = std::make_shared<PlotOptions>();
+  cmd->add_option("dir", o->dir, "an eval --out folder (its runs/METHOD_seedS) or a dagger --out folder; finished or not")->required();
+  cmd->add_option("--seed", o->seed, "which seed's runs, in an eval folder")->capture_default_str()->check(CLI::NonNegativeNumber);
+  cmd->add_option("--episode", o->episode, "figure 5's episode (default: N_i + 1, the first the robot acts in)")->check(CLI::NonNegativeNumber);
+  return [o] {
+    for (const std::string& f : plot_runs(*o)) fmt::print("{}\n", f);
+    return 0;
+  };
+}
+
 }  // namespace dd::app

@@ -18,6 +18,8 @@ Command add_demo2d(CLI::App& app);
 Command add_dagger(CLI::App& app);
 /// `eval`: RQ1-RQ3 for every method on a task.
 Command add_eval(CLI::App& app);
+/// `plot DIR`: figures 4 and 5 from the event logs of an eval or dagger run folder.
+Command add_plot(CLI::App& app);
 /// `dataset info|export|merge`.
 Command add_dataset(CLI::App& app);
 /// `gui`: the operator console, in a window or headless.

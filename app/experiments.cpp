@@ -87,6 +87,8 @@ std::string outcome_counts(const std::vector<RolloutResult>& results) {
   return out;
 }
 
+}  // namespace
+
 std::string method_title(const std::string& m) {
   if (m == "diff") return "Diff-DAgger";
   if (m == "ensemble") return "Ensemble-DAgger";
@@ -95,7 +97,9 @@ std::string method_title(const std::string& m) {
   return m;
 }
 
+namespace {
 const ui::Rgb kMethodColors[] = {{60, 110, 210}, {235, 120, 50}, {150, 90, 190}, {130, 130, 130}};
+}  // namespace
 
 ui::Rgb method_color(const std::string& m) {
   if (m == "diff") return kMethodColors[0];
@@ -103,8 +107,6 @@ ui::Rgb method_color(const std::string& m) {
   if (m == "thrifty") return kMethodColors[2];
   return kMethodColors[3];
 }
-
-}  // namespace
 
 ExperimentConfig resolve_config(const std::string& task, const std::string& config_file) {
   if (!config_file.empty()) {

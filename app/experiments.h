@@ -1,7 +1,9 @@
 // The interactive-learning experiments behind `diffdagger dagger` and `diffdagger eval`.
 #pragma once
 
+#include <array>
 #include <cmath>
+#include <cstdint>
 #include <memory>
 #include <string>
 #include <utility>
@@ -42,6 +44,22 @@ int bc_budget_factor(const DaggerConfig& dagger);
 /// when updates fine-tune; the epoch rule when they train from scratch), so that N_D alone sets how
 /// good the policy is.
 TrainConfig rq1_training(const ExperimentConfig& config);
+
+/// "Diff-DAgger", "Ensemble-DAgger", "Thrifty-DAgger", "BC" (other names as they are), and each
+/// method's colour in every figure.
+std::string method_title(const std::string& method);
+std::array<uint8_t, 3> method_color(const std::string& method);
+
+/// `diffdagger plot DIR`: the paper's figures 4 and 5 from the logs of an `eval` folder's DAgger runs
+/// (DIR/runs/METHOD_seedS/queries.jsonl) or of one `dagger` run folder, finished or not.
+struct PlotOptions {
+  std::string dir;
+  int seed = 0;      // which seed's runs (an eval folder)
+  int episode = 0;   // figure 5's episode (0: the first the robot acts in, N_i + 1)
+};
+/// Writes DIR/figure4_wallclock.png with wallclock.csv, and DIR/figure5_episode.png with
+/// episode.csv; returns the files written. Throws Error naming the folder or log that is missing or malformed.
+std::vector<std::string> plot_runs(const PlotOptions& options);
 
 /// `n` successful demonstrations of `task`'s expert in `mode`, for training without a session (RQ1,
 /// `train` without a data set); episode e starts from seed * 1000033 + 777 + e.

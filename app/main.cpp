@@ -30,6 +30,7 @@ int main(int argc, char** argv) {
   add(dd::app::add_eval);
   add(dd::app::add_train);
   add(dd::app::add_curves);
+  add(dd::app::add_plot);
   add(dd::app::add_dataset);
   add(dd::app::add_bimodal);
   add(dd::app::add_inspect);

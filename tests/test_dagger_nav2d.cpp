@@ -14,6 +14,7 @@
 #include "core/evaluation.h"
 #include "core/method.h"
 #include "envs/registry.h"
+#include "ui/image_io.h"
 
 namespace dd::app {
 namespace {
@@ -213,6 +214,40 @@ TEST(DaggerNav2d, QuickEvaluationWritesEveryFile) {
   }();
   EXPECT_NE(report.find("| TP | FP | TN | FN |"), std::string::npos);
   EXPECT_NE(report.find("final iteration"), std::string::npos);
+
+  // `plot`: figures 4 and 5 from the runs' event logs
+  PlotOptions p;
+  p.dir = e.out;
+  EXPECT_EQ(plot_runs(p).size(), 4u);
+  std::ifstream wallclock(e.out + "/wallclock.csv");
+  std::getline(wallclock, header);
+  std::set<std::string> methods;
+  while (std::getline(wallclock, line)) methods.insert(line.substr(0, line.find(',')));
+  EXPECT_EQ(methods, (std::set<std::string>{"diff", "ensemble", "thrifty", "bc"}));
+  std::ifstream episode(e.out + "/episode.csv");
+  std::getline(episode, header);
+  std::set<std::string> rows_of;
+  while (std::getline(episode, line)) rows_of.insert(line.substr(0, line.find(',')));
+  EXPECT_EQ(rows_of, (std::set<std::string>{"diff", "ensemble", "thrifty"})) << "BC never decides: no row";
+  const ui::Image fig5 = ui::read_png(e.out + "/figure5_episode.png");
+  EXPECT_GT(fig5.width, 400);
+  // a corrupt line (not the last) is refused with the file and line
+  {
+    const std::string log = e.out + "/runs/diff_seed0/queries.jsonl";
+    const std::string text = [&] {
+      std::ifstream f(log);
+      std::stringstream ss;
+      ss << f.rdbuf();
+      return ss.str();
+    }();
+    std::ofstream(log) << "{not json\n" << text;
+    try {
+      plot_runs(p);
+      ADD_FAILURE() << "a corrupt log was plotted";
+    } catch (const Error& err) {
+      EXPECT_NE(std::string(err.what()).find(log + ":1"), std::string::npos) << err.what();
+    }
+  }
   fs::remove_all(e.out);
 }
 

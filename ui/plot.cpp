@@ -1,5 +1,6 @@
 #include "ui/plot.h"
 
+#include <fmt/format.h>
 #include <opencv2/imgproc.hpp>
 
 #include <algorithm>
@@ -42,7 +43,9 @@ std::string fmt_num(double v) {
   const double a = std::abs(v);
   if (a != 0 && (a < 1e-2 || a >= 1e4)) std::snprintf(b, sizeof b, "%.1e", v);
   else if (a < 1) std::snprintf(b, sizeof b, "%.3f", v);
-  else std::snprintf(b, sizeof b, "%.2f", v);
+  else if (a < 10) std::snprintf(b, sizeof b, "%.2f", v);
+  else if (a < 100) std::snprintf(b, sizeof b, "%.1f", v);
+  else std::snprintf(b, sizeof b, "%.0f", v);
   return b;
 }
 
@@ -277,6 +280,72 @@ Image hstack(const std::vector<Image>& images, const std::string& caption) {
     x += i.width;
   }
   if (cap) text(m, caption, {m.cols / 2, h + 22}, 0.45, cv::Scalar(90, 90, 90), 1, true);
+  return to_image(m);
+}
+
+Image vstack(const std::vector<Image>& images) {
+  int w = 1, h = 0;
+  for (const auto& i : images) {
+    w = std::max(w, i.width);
+    h += i.height;
+  }
+  cv::Mat m(std::max(h, 1), w, CV_8UC3, cv::Scalar(255, 255, 255));
+  int y = 0;
+  for (const auto& i : images) {
+    to_mat(i).copyTo(m(cv::Rect(0, y, i.width, i.height)));
+    y += i.height;
+  }
+  return to_image(m);
+}
+
+Image draw_timeline(const TimelinePanel& p) {
+  const int left = 110, right = 30, top = 50, row_h = 34, gap = 16, axis_h = 50;
+  const int rows = static_cast<int>(p.rows.size());
+  const int legend_h = 30;
+  const int height = top + rows * (row_h + gap) + axis_h + legend_h;
+  cv::Mat m(height, p.width, CV_8UC3, cv::Scalar(255, 255, 255));
+  double x1 = 1;
+  for (const auto& r : p.rows) {
+    for (const auto& s : r.spans) x1 = std::max(x1, s.end);
+    for (double k : r.marks) x1 = std::max(x1, k);
+  }
+  const double step = nice_step(x1, 8);
+  x1 = std::ceil(x1 / step) * step;
+  const int plot_w = p.width - left - right;
+  auto x_of = [&](double v) { return left + static_cast<int>(std::lround(v / x1 * plot_w)); };
+  const int axis_y = top + rows * (row_h + gap);
+  for (double v = 0; v <= x1 + 1e-9; v += step) {
+    cv::line(m, {x_of(v), top - 6}, {x_of(v), axis_y}, kGrid, 1);
+    text(m, step >= 1 ? fmt::format("{:.0f}", v) : fmt_num(v), {x_of(v), axis_y + 18}, 0.42, kInk, 1, true);
+  }
+  for (int i = 0; i < rows; ++i) {
+    const TimelineRow& r = p.rows[static_cast<size_t>(i)];
+    const int y = top + i * (row_h + gap) + 8;
+    text(m, r.name, {8, y + row_h / 2 + 5}, 0.45);
+    for (const auto& s : r.spans)
+      cv::rectangle(m, {x_of(s.start), y}, {std::max(x_of(s.start) + 1, x_of(s.end)), y + row_h}, scalar(s.color), cv::FILLED);
+    cv::rectangle(m, {left, y}, {left + plot_w, y + row_h}, kGrid, 1);
+    for (double k : r.marks) {  // a downward triangle above the row
+      const int x = x_of(k);
+      const std::vector<cv::Point> tri{{x - 6, y - 10}, {x + 6, y - 10}, {x, y - 1}};
+      cv::fillConvexPoly(m, tri, kInk, cv::LINE_AA);
+    }
+  }
+  cv::line(m, {left, axis_y}, {left + plot_w, axis_y}, kInk, 1);
+  text(m, p.x_label, {left + plot_w / 2, axis_y + 40}, 0.45, kInk, 1, true);
+  text(m, p.title, {p.width / 2, 28}, 0.62, kInk, 2, true);
+  // legend: colour swatches, then the mark
+  int x = left;
+  const int ly = height - 14;
+  for (const auto& [name, color] : p.legend) {
+    cv::rectangle(m, {x, ly - 11}, {x + 22, ly + 1}, scalar(color), cv::FILLED);
+    text(m, name, {x + 28, ly}, 0.42);
+    int base = 0;
+    x += 40 + cv::getTextSize(name, kFont, 0.42, 1, &base).width;
+  }
+  const std::vector<cv::Point> tri{{x, ly - 11}, {x + 12, ly - 11}, {x + 6, ly}};
+  cv::fillConvexPoly(m, tri, kInk, cv::LINE_AA);
+  text(m, p.mark_label, {x + 18, ly}, 0.42);
   return to_image(m);
 }
 

@@ -64,5 +64,26 @@ Image draw_field(const FieldPanel& panel);
 
 /// Places images side by side on white, top-aligned, with an optional caption line underneath.
 Image hstack(const std::vector<Image>& images, const std::string& caption = "");
+/// Panels one above the other, left-aligned.
+Image vstack(const std::vector<Image>& images);
+
+/// Who acted when: one row per name, coloured spans over a shared x axis (steps), with tick marks
+/// (queries) above a row's spans, and a legend of the colours below.
+struct TimelineSpan {
+  double start = 0, end = 0;
+  Rgb color{};
+};
+struct TimelineRow {
+  std::string name;
+  std::vector<TimelineSpan> spans;
+  std::vector<double> marks;
+};
+struct TimelinePanel {
+  std::string title, x_label, mark_label = "query";
+  std::vector<TimelineRow> rows;
+  std::vector<std::pair<std::string, Rgb>> legend;
+  int width = 900;
+};
+Image draw_timeline(const TimelinePanel& panel);
 
 }  // namespace dd::ui

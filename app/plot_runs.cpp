@@ -1,0 +1,233 @@
+// `diffdagger plot DIR`: the paper's figure 4 (wall-clock per DAgger iteration) and figure 5 (who acted
+// when in one episode, per method) drawn from the runs' own event logs, so they work on any run
+// folder, finished or still running.
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <nlohmann/json.hpp>
+
+#include "app/experiments.h"
+#include "core/method.h"
+#include "core/text_file.h"
+#include "ui/plot.h"
+
+namespace dd::app {
+namespace {
+
+namespace fs = std::filesystem;
+using nlohmann::json;
+
+struct Run {
+  std::string method;  // "diff", ... or the folder's name for a lone dagger run
+  std::string log;
+  std::vector<json> events;
+};
+
+std::vector<json> read_events(const std::string& path) {
+  std::ifstream f(path);
+  if (!f) throw Error(path + ": cannot open the event log");
+  std::vector<json> out;
+  int line_no = 0;
+  for (std::string line; std::getline(f, line);) {
+    ++line_no;
+    if (line.empty()) continue;
+    try {
+      json j = json::parse(line);
+      if (!j.is_object() || !j.contains("event")) throw Error("no field 'event'");
+      out.push_back(std::move(j));
+    } catch (const std::exception& e) {
+      // a run killed mid-line leaves a partial last line: skip it, refuse anything else
+      if (f.peek() == EOF) break;
+      throw Error(fmt::format("{}:{}: not an event ({})", path, line_no, e.what()));
+    }
+  }
+  return out;
+}
+
+const ui::Rgb kRobot{60, 110, 210}, kQuery{235, 120, 50}, kTimeout{200, 60, 60}, kDemo{80, 160, 90}, kOperator{150, 90, 190};
+
+ui::Rgb control_color(const std::string& control) {
+  if (control == "robot") return kRobot;
+  if (control == "expert_query") return kQuery;
+  if (control == "expert_timeout") return kTimeout;
+  if (control == "operator") return kOperator;
+  return kDemo;
+}
+
+double number(const json& j, const char* key) { return j.contains(key) && j[key].is_number() ? j[key].get<double>() : 0.0; }
+
+// Per iteration (one policy update and the robot's decisions before the next): wall-clock seconds.
+struct Iterations {
+  std::vector<double> train, threshold, inference;
+};
+
+Iterations iterations(const Run& r) {
+  Iterations it;
+  double inference = 0;
+  int updates = 0;
+  for (const json& e : r.events) {
+    const std::string kind = e["event"];
+    if (kind == "decision") inference += number(e, "inference_ms") / 1e3;
+    if (kind == "update_finished") {
+      it.train.push_back(number(e, "train_s"));
+      it.threshold.push_back(number(e, "threshold_s"));
+      // the decisions between two updates belong to the iteration the earlier one began
+      if (updates++ > 0) it.inference.push_back(inference);
+      inference = 0;
+    }
+  }
+  return it;
+}
+
+std::pair<double, double> mean_and_std(const std::vector<double>& v) {
+  if (v.empty()) return {NAN, NAN};
+  double m = 0, s = 0;
+  for (double x : v) m += x;
+  m /= static_cast<double>(v.size());
+  for (double x : v) s += (x - m) * (x - m);
+  return {m, std::sqrt(s / static_cast<double>(v.size()))};
+}
+
+}  // namespace
+
+std::vector<std::string> plot_runs(const PlotOptions& o) {
+  if (!fs::is_directory(o.dir)) throw Error(o.dir + ": no such run folder");
+  std::vector<Run> runs;
+  if (fs::exists(o.dir + "/queries.jsonl")) {
+    runs.push_back({fs::path(o.dir).filename().string(), o.dir + "/queries.jsonl", {}});
+  } else {
+    for (const std::string& m : method_names()) {
+      const std::string log = fmt::format("{}/runs/{}_seed{}/queries.jsonl", o.dir, m, o.seed);
+      if (fs::exists(log)) runs.push_back({m, log, {}});
+    }
+  }
+  if (runs.empty())
+    throw Error(fmt::format("{}: holds neither queries.jsonl (a dagger run) nor runs/METHOD_seed{}/queries.jsonl (an eval run)", o.dir, o.seed));
+  for (Run& r : runs) r.events = read_events(r.log);
+
+  int initial_demos = 0;
+  if (fs::exists(o.dir + "/config.json")) {
+    try {
+      initial_demos = json::parse(read_text(o.dir + "/config.json")).at("dagger").at("initial_demos").get<int>();
+    } catch (const json::exception& e) {
+      throw Error(o.dir + "/config.json: no field dagger.initial_demos (" + std::string(e.what()) + ")");
+    }
+  }
+  std::vector<std::string> written;
+
+  // Figure 4: mean wall-clock per iteration and its spread over iterations, per method.
+  {
+    std::string csv = "method,iterations,train_s,train_std,threshold_s,threshold_std,inference_s,inference_std,total_s\n";
+    ui::BarPanel panels[4];
+    const char* titles[4] = {"training", "threshold setting", "inference", "total"};
+    for (int k = 0; k < 4; ++k) {
+      panels[k].title = titles[k];
+      panels[k].y_label = "seconds per iteration";
+      panels[k].width = 330;
+    }
+    for (const Run& r : runs) {
+      const Iterations it = iterations(r);
+      if (it.train.empty()) continue;  // no update yet
+      const auto [tr, tr_sd] = mean_and_std(it.train);
+      const auto [th, th_sd] = mean_and_std(it.threshold);
+      const auto [in, in_sd] = it.inference.empty() ? std::pair<double, double>{0, 0} : mean_and_std(it.inference);
+      const double values[4] = {tr, th, in, tr + th + in}, errors[4] = {tr_sd, th_sd, in_sd, 0};
+      for (int k = 0; k < 4; ++k) {
+        panels[k].categories.push_back(method_title(r.method));
+        panels[k].values.push_back(values[k]);
+        panels[k].errors.push_back(errors[k]);
+        panels[k].colors.push_back(method_color(r.method));
+      }
+      csv += fmt::format("{},{},{:.4f},{:.4f},{:.4f},{:.4f},{:.4f},{:.4f},{:.4f}\n", r.method, it.train.size(), tr, tr_sd, th, th_sd, in,
+                         in_sd, tr + th + in);
+    }
+    if (!panels[0].values.empty()) {
+      write_text(o.dir + "/wallclock.csv", csv);
+      ui::write_png(o.dir + "/figure4_wallclock.png",
+                    ui::hstack({ui::draw_bars(panels[0]), ui::draw_bars(panels[1]), ui::draw_bars(panels[2]), ui::draw_bars(panels[3])},
+                               fmt::format("wall-clock per DAgger iteration (mean, whisker: std over iterations), seed {}; "
+                                           "inference counts the robot's decisions until the next update",
+                                           o.seed)));
+      written.push_back(o.dir + "/wallclock.csv");
+      written.push_back(o.dir + "/figure4_wallclock.png");
+    }
+  }
+
+  // Figure 5: who acted when in one episode (the same start state in every run: episodes are seeded
+  // by their number), with the queries, and the query rule's score against its threshold.
+  {
+    const int episode = o.episode > 0 ? o.episode : initial_demos + 1;
+    ui::TimelinePanel timeline;
+    timeline.title = fmt::format("episode {}: who acted (seed {})", episode, o.seed);
+    timeline.x_label = "control step";
+    timeline.legend = {{"robot", kRobot}, {"expert (query)", kQuery}, {"expert (time limit)", kTimeout},
+                       {"demonstration", kDemo}, {"operator", kOperator}};
+    ui::LinePanel scores;
+    scores.title = "the rule's score over its threshold at each decision (above 1: a violation)";
+    scores.x_label = "control step";
+    scores.y_label = "score / threshold";
+    scores.width = timeline.width;
+    scores.height = 300;
+    std::string csv = "method,step,event,control,score,threshold\n";
+    double last_step = 0;
+    for (const Run& r : runs) {
+      // BC never decides whether to ask: it has no row here
+      if (std::none_of(r.events.begin(), r.events.end(), [](const json& e) { return e["event"] == "decision"; })) continue;
+      ui::TimelineRow row;
+      row.name = method_title(r.method);
+      ui::LineSeries ratio;
+      ratio.name = method_title(r.method);
+      ratio.color = method_color(r.method);
+      bool seen = false;
+      std::string control;
+      double from = 0;
+      for (const json& e : r.events) {
+        if (!e.contains("episode") || e["episode"].get<int>() != episode) continue;
+        const std::string kind = e["event"];
+        const double step = number(e, "step");
+        const std::string c = e.value("control", "");
+        if (kind == "episode_start") {
+          seen = true;
+          control = c;
+          from = 0;
+        } else if (kind == "takeover" || kind == "hand_back" || kind == "episode_end") {
+          row.spans.push_back({from, step, control_color(control)});
+          control = c;
+          from = step;
+        } else if (kind == "query") {
+          row.marks.push_back(step);
+        } else if (kind == "decision" && number(e, "threshold") > 0) {
+          ratio.x.push_back(step);
+          ratio.y.push_back(number(e, "score") / number(e, "threshold"));
+        }
+        last_step = std::max(last_step, step);
+        csv += fmt::format("{},{},{},{},{},{}\n", r.method, step, kind, c, kind == "decision" ? fmt::format("{:.6g}", number(e, "score")) : "",
+                           kind == "decision" ? fmt::format("{:.6g}", number(e, "threshold")) : "");
+      }
+      if (!seen) continue;  // this run has not reached the episode
+      timeline.rows.push_back(std::move(row));
+      if (!ratio.x.empty()) scores.series.push_back(std::move(ratio));
+    }
+    if (!timeline.rows.empty()) {
+      std::vector<ui::Image> panels{ui::draw_timeline(timeline)};
+      if (!scores.series.empty()) {
+        scores.series.push_back({"threshold", {0, last_step}, {1, 1}, {40, 40, 40}});
+        scores.y_min = 0;
+        panels.push_back(ui::draw_lines(scores));
+      }
+      write_text(o.dir + "/episode.csv", csv);
+      ui::write_png(o.dir + "/figure5_episode.png", ui::vstack(panels));
+      written.push_back(o.dir + "/episode.csv");
+      written.push_back(o.dir + "/figure5_episode.png");
+    }
+  }
+  if (written.empty())
+    throw Error(fmt::format("{}: the runs have no policy update yet and none reached episode {}; nothing to plot", o.dir,
+                            o.episode > 0 ? o.episode : initial_demos + 1));
+  return written;
+}
+
+}  // namespace dd::app
