@@ -595,7 +595,7 @@ void run_cells_in_processes(const std::vector<EvalCell>& cells, int jobs, const 
   std::vector<std::string> failed;
   size_t next = 0, done = 0;
   auto start = [&](const EvalCell& cell) {
-    const std::string log = fmt::format("{}/{}_seed{}_{}.log", log_dir, cell.method, cell.seed, cell.rq1 ? "rq1" : "rq2");
+    const std::string log = log_dir + "/" + cell.stem() + ".log";
     const int fd = ::open(log.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
     if (fd < 0) throw Error(log + ": cannot open for writing: " + std::strerror(errno));
     std::vector<std::string> args = child_arguments(cell.id());
@@ -701,6 +701,7 @@ void set_command_line(int argc, char** argv) {
 }
 
 std::string EvalCell::id() const { return fmt::format("{}:{}:{}", method, seed, rq1 ? "rq1" : "rq2"); }
+std::string EvalCell::stem() const { return fmt::format("{}_seed{}_{}", method, seed, rq1 ? "rq1" : "rq2"); }
 
 std::vector<EvalCell> eval_cells(const std::vector<std::string>& methods, int seeds) {
   // rough cost: ensembles train 5 members; a DAgger run trains about as much as BC on N_f
@@ -795,7 +796,7 @@ void run_eval(const ExperimentConfig& config, const EvalOptions& o) {
     return c;
   };
   auto eval_seed_of = [](int s) { return 900000 + 1000 * static_cast<uint64_t>(s); };
-  auto cell_base = [&](const std::string& name, int s) { return o.out + "/cells/" + name + "_seed" + std::to_string(s); };
+  auto cell_file = [&](const std::string& name, int s, bool rq1) { return o.out + "/cells/" + EvalCell{name, s, rq1}.stem() + ".json"; };
 
   // RQ1: a policy trained on N_D demonstrations, rolled out without intervention.
   auto run_rq1_cell = [&](const std::string& name, int s) {
@@ -825,7 +826,7 @@ void run_eval(const ExperimentConfig& config, const EvalOptions& o) {
     const FailurePrediction p = failure_prediction(results);
     const nlohmann::json j{{"tpr", p.tpr}, {"tnr", p.tnr}, {"f1", p.f1}, {"acc", p.accuracy}, {"tp", p.tp}, {"fp", p.fp},
                            {"tn", p.tn}, {"fn", p.fn}, {"success", success_rate(results)}, {"risk_data_s", risk_data_s}};
-    save_cell(cell_base(name, s) + "_rq1.json", j);
+    save_cell(cell_file(name, s, true), j);
   };
   // RQ2 and RQ3: interactive learning to N_f, then rollouts of the final policy.
   auto run_rq2_cell = [&](const std::string& name, int s) {
@@ -856,7 +857,7 @@ void run_eval(const ExperimentConfig& config, const EvalOptions& o) {
                            {"queries", run.queries},
                            {"timeouts", run.timeouts},
                            {"dagger_episodes", run.episodes}};
-    save_cell(cell_base(name, s) + "_rq2.json", j);
+    save_cell(cell_file(name, s, false), j);
     fmt::print(stderr, "[seed {}] {:8} success {:.2f}; {} interventions ({} queries, {} time-outs) in {} episodes\n", s, name,
                j["success"].get<double>(), run.interventions, run.queries, run.timeouts, run.episodes);
   };
@@ -875,21 +876,24 @@ void run_eval(const ExperimentConfig& config, const EvalOptions& o) {
   std::set<std::string> ran_here;  // cells finished by this run's child processes
   if (o.jobs > 1) {
     std::vector<EvalCell> todo;
-    for (const EvalCell& cell : eval_cells(o.methods, o.seeds))
-      if (!fs::exists(cell_base(cell.method, cell.seed) + (cell.rq1 ? "_rq1.json" : "_rq2.json"))) todo.push_back(cell);
-    for (const EvalCell& cell : todo) ran_here.insert(cell_base(cell.method, cell.seed) + (cell.rq1 ? "_rq1.json" : "_rq2.json"));
+    for (const EvalCell& cell : eval_cells(o.methods, o.seeds)) {
+      const std::string file = cell_file(cell.method, cell.seed, cell.rq1);
+      if (fs::exists(file)) continue;
+      todo.push_back(cell);
+      ran_here.insert(file);
+    }
     run_cells_in_processes(todo, o.jobs, o.out + "/logs");
   }
 
   for (int s = 0; s < o.seeds; ++s) {
     for (const std::string& name : o.methods) {
       Row& row = rows[name];
-      const std::string cell = cell_base(name, s);
       if (name != "bc") {
-        auto j = finished(cell + "_rq1.json", ran_here);
+        const std::string file = cell_file(name, s, true);
+        auto j = finished(file, ran_here);
         if (!j) {
           run_rq1_cell(name, s);
-          j = finished(cell + "_rq1.json", {cell + "_rq1.json"});
+          j = finished(file, {file});
         }
         // undefined rates (NaN) are written as null
         auto rate = [&](const char* k) { return (*j)[k].is_number() ? (*j)[k].get<double>() : NAN; };
@@ -901,10 +905,11 @@ void run_eval(const ExperimentConfig& config, const EvalOptions& o) {
         row.rq1_success.push_back((*j)["success"].get<double>());
         if (name == "thrifty") row.risk_data.push_back((*j)["risk_data_s"].get<double>());
       }
-      auto j = finished(cell + "_rq2.json", ran_here);
+      const std::string file = cell_file(name, s, false);
+      auto j = finished(file, ran_here);
       if (!j) {
         run_rq2_cell(name, s);
-        j = finished(cell + "_rq2.json", {cell + "_rq2.json"});
+        j = finished(file, {file});
       }
       row.success.push_back((*j)["success"].get<double>());
       row.train.push_back((*j)["train_s"].get<double>());

@@ -143,7 +143,8 @@ struct EvalCell {
   std::string method;
   int seed = 0;
   bool rq1 = false;
-  std::string id() const;  // "METHOD:SEED:rq1|rq2"
+  std::string id() const;    // "METHOD:SEED:rq1|rq2"
+  std::string stem() const;  // "METHOD_seedSEED_rq1|rq2": its file in cells/ (.json) and its log (.log)
 };
 /// Every cell of `methods` x `seeds`, the longest first (ensemble methods' DAgger runs train 5 members).
 std::vector<EvalCell> eval_cells(const std::vector<std::string>& methods, int seeds);

@@ -17,16 +17,6 @@ namespace {
 constexpr const char* kFormat = "diffdagger-policy";
 constexpr int64_t kVersion = 1;
 
-torch::Tensor vec_tensor(const Vec& v) {
-  return torch::from_blob(const_cast<float*>(v.data()), {v.size()}, torch::kFloat32).clone();
-}
-
-Vec tensor_vec(const torch::Tensor& t) {
-  const torch::Tensor c = t.contiguous().to(torch::kFloat32);
-  return Eigen::Map<const Vec>(c.data_ptr<float>(), c.numel());
-}
-
-
 struct Contents {
   PolicyConfig config;
   torch::serialize::InputArchive archive;

@@ -16,13 +16,6 @@ torch::nn::Sequential make_mlp(int in, int hidden) {
                                torch::nn::ReLU(), torch::nn::Linear(hidden, 1), torch::nn::Sigmoid());
 }
 
-torch::Tensor vec_tensor(const Vec& v) { return torch::from_blob(const_cast<float*>(v.data()), {v.size()}, torch::kFloat32).clone(); }
-
-Vec tensor_vec(const torch::Tensor& t) {
-  const torch::Tensor c = t.contiguous().to(torch::kFloat32);
-  return Eigen::Map<const Vec>(c.data_ptr<float>(), c.numel());
-}
-
 torch::Tensor to_tensor(const Mat& m) {
   return torch::from_blob(const_cast<float*>(m.data()), {m.rows(), m.cols()}, torch::kFloat32).clone();
 }

@@ -24,4 +24,13 @@ void save_archive_atomically(torch::serialize::OutputArchive& archive, const std
   }
 }
 
+torch::Tensor vec_tensor(const Vec& v) {
+  return torch::from_blob(const_cast<float*>(v.data()), {v.size()}, torch::kFloat32).clone();
+}
+
+Vec tensor_vec(const torch::Tensor& t) {
+  const torch::Tensor c = t.contiguous().to(torch::kFloat32);
+  return Eigen::Map<const Vec>(c.data_ptr<float>(), c.numel());
+}
+
 }  // namespace dd

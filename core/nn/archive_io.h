@@ -6,10 +6,16 @@
 
 #include <torch/torch.h>
 
+#include "core/types.h"
+
 namespace dd {
 
 /// The first line of a torch error: the rest is a C++ backtrace nobody wants to read.
 std::string first_line(const std::string& s);
+
+/// A vector as a 1-D float tensor (a copy) and back: normalisers in archives.
+torch::Tensor vec_tensor(const Vec& v);
+Vec tensor_vec(const torch::Tensor& t);
 
 /// Writes `archive` to path + ".tmp" and renames it to `path`, so a failed save (a full disk) never
 /// clobbers a good file. Throws Error "path: could not write <what>: ..." on failure.
