@@ -269,6 +269,42 @@ Demo2dResult run_demo2d(const Demo2dOptions& o) {
   }
   fmt::print(stderr, "[4/5] probed {} states in each of the regions id_um, id_mm, ood\n", o.runs);
 
+  // The same probes' loss split by diffusion timestep, in each space the loss can be scored in (the
+  // targets convert into one another): where along t do the regions separate, and which score keeps
+  // in-distribution multi-modal states low? Same chunks and noise seeds as the region probes.
+  const ScoreSpace kSpaces[] = {ScoreSpace::kTarget, ScoreSpace::kEpsilon, ScoreSpace::kVelocity, ScoreSpace::kSample};
+  const int T_d = pc.scheduler.num_train_timesteps;
+  auto is_training_target = [&](ScoreSpace space) {
+    const PredictionType p = pc.scheduler.prediction;
+    return (space == ScoreSpace::kEpsilon && p == PredictionType::kEpsilon) || (space == ScoreSpace::kSample && p == PredictionType::kSample) ||
+           (space == ScoreSpace::kVelocity && p == PredictionType::kVelocity);
+  };
+  const int n_t = std::max(1, o.loss_samples / T_d) * T_d;
+  std::map<std::string, std::vector<std::vector<float>>> by_t;  // "space/region" -> per probe, T_d losses
+  for (int k = 0; k < 3; ++k) {
+    const Mat& obs = probes[static_cast<size_t>(k)];
+    const std::vector<Mat> chunks = policy.sample_batch(obs, o.seed + 300 + static_cast<uint64_t>(k));
+    for (const ScoreSpace space : kSpaces) {
+      policy.set_score_space(space);
+      auto& rows = by_t[to_string(space) + "/" + kRegions[k]];
+      for (Eigen::Index i = 0; i < obs.rows(); ++i)
+        rows.push_back(policy.loss_by_timestep(obs.row(i).transpose(), chunks[static_cast<size_t>(i)],
+                                               o.seed + 600 + static_cast<uint64_t>(k) * 100000 + static_cast<uint64_t>(i), n_t));
+    }
+    policy.set_score_space(ScoreSpace::kTarget);
+  }
+  // per space and region: the mean over probes at each t, and each probe's mean over t (the score)
+  auto mean_over_probes = [&](const std::string& key, int t) {
+    double m = 0;
+    for (const auto& row : by_t[key]) m += row[static_cast<size_t>(t)];
+    return m / static_cast<double>(by_t[key].size());
+  };
+  auto scores_of = [&](const std::string& key) {
+    std::vector<float> v;
+    for (const auto& row : by_t[key]) v.push_back(std::accumulate(row.begin(), row.end(), 0.0f) / static_cast<float>(row.size()));
+    return v;
+  };
+
   std::string csv = "region,metric,mean,std,n\n";
   for (const char* metric : {"ensemble_std", "diffusion_loss"}) {
     for (const char* region : kRegions) {
@@ -313,6 +349,42 @@ Demo2dResult run_demo2d(const Demo2dOptions& o) {
   const std::string csv_path = o.out + "/fig2_regions.csv";
   write_text(csv_path, csv);
   result.files.push_back(csv_path);
+
+  {  // the loss by timestep: CSV and one panel per space
+    std::string t_csv = "space,region,t,mean_loss\n";
+    std::vector<ui::Image> panels;
+    const ui::Rgb region_colors[3] = {{80, 160, 90}, {235, 120, 50}, {200, 60, 60}};
+    for (const ScoreSpace space : kSpaces) {
+      if (space == ScoreSpace::kTarget) continue;  // the same numbers as the training target's own space
+      ui::LinePanel p;
+      p.title = fmt::format("scored in {} space{}", to_string(space),
+                            is_training_target(space) ? " (the training target)" : "");
+      p.x_label = "diffusion timestep t (higher: noisier)";
+      p.y_label = "mean loss over probes";
+      p.width = 460;
+      p.y_min = 0;
+      for (int k = 0; k < 3; ++k) {
+        const std::string key = to_string(space) + "/" + kRegions[k];
+        ui::LineSeries line;
+        line.name = kRegions[k];
+        line.color = region_colors[k];
+        for (int t = 0; t < T_d; ++t) {
+          line.x.push_back(t);
+          line.y.push_back(mean_over_probes(key, t));
+          t_csv += fmt::format("{},{},{},{:.6g}\n", to_string(space), kRegions[k], t, line.y.back());
+        }
+        p.series.push_back(std::move(line));
+      }
+      panels.push_back(ui::draw_lines(p));
+    }
+    const std::string t_csv_path = o.out + "/fig2_loss_by_timestep.csv", t_png_path = o.out + "/fig2_loss_by_timestep.png";
+    write_text(t_csv_path, t_csv);
+    ui::write_png(t_png_path, ui::hstack(panels, fmt::format("one network ({} objective) scored in each space; {} probes per region, "
+                                                             "{} rows per timestep each",
+                                                             to_string(pc.scheduler.prediction), o.runs, n_t / T_d)));
+    result.files.push_back(t_csv_path);
+    result.files.push_back(t_png_path);
+  }
 
   std::vector<ui::Image> bars;
   for (const auto& [metric, title, label] :
@@ -403,10 +475,25 @@ Demo2dResult run_demo2d(const Demo2dOptions& o) {
           "on one path and scores low, so with K = 2 a single high decision at the start does not raise a query. "
           "Try `--prediction epsilon` to compare objectives.\n";
   }
+  md += fmt::format("\n## The same network scored in each space\n\n"
+                    "The three targets are conversions of one another, so the {} network's loss can be measured in any: per "
+                    "timestep the epsilon-space loss weights the v-space loss by alpha_bar_t (low at high noise), the sample-space "
+                    "loss by 1 - alpha_bar_t. `fig2_loss_by_timestep.png` shows each region's loss against t.\n\n"
+                    "| space | id_um | id_mm | ood | ood / id_mm | ood / id_um |\n|---|---|---|---|---|---|\n",
+                    to_string(pc.scheduler.prediction));
+  for (const ScoreSpace space : kSpaces) {
+    if (space == ScoreSpace::kTarget) continue;
+    double m[3];
+    for (int k = 0; k < 3; ++k) m[k] = mean_std(scores_of(to_string(space) + "/" + kRegions[k])).first;
+    md += fmt::format("| {}{} | {:.4g} | {:.4g} | {:.4g} | {:.2f}x | {:.2f}x |\n", to_string(space),
+                      is_training_target(space) ? " (training target)" : "", m[0], m[1], m[2], m[2] / m[1],
+                      m[2] / m[0]);
+  }
   md += fmt::format(
       "\nThresholds are the alpha-quantile over {} training pairs: ensemble std {:.4f} m, diffusion loss {:.4f}. "
       "A \"flag\" is one decision above the threshold (K = 1).\n\n"
-      "Files: `fig2_regions.csv`, `fig2_regions.png` (figure 2b), `loss_field.png` (both measures over the plane). "
+      "Files: `fig2_regions.csv`, `fig2_regions.png` (figure 2b), `loss_field.png` (both measures over the plane), "
+      "`fig2_loss_by_timestep.csv` and `.png` (the probes' loss by timestep in each space). "
       "Took {}.\n",
       n_cal, std_threshold, loss_threshold, format_duration(seconds));
   const std::string md_path = o.out + "/summary.md";

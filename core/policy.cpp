@@ -141,7 +141,17 @@ torch::Tensor DiffusionPolicy::Impl::row_losses(const torch::Tensor& obs, const 
   // bfloat16: FastDenoiser's
   const torch::Tensor pred = precision == InferencePrecision::kFloat32 ? net->denoise(x_t, row_films)
                                                                        : fast_denoiser(*net)->denoise(x_t, row_films);
-  return (pred - scheduler.target(x0, eps, t_rows)).pow(2).reshape({B, n, -1}).mean(2);
+  torch::Tensor err;
+  switch (score_space) {
+    case ScoreSpace::kTarget: err = pred - scheduler.target(x0, eps, t_rows); break;
+    case ScoreSpace::kEpsilon: err = scheduler.predicted_eps(pred, x_t, t_rows) - eps; break;
+    case ScoreSpace::kSample: err = scheduler.predicted_x0(pred, x_t, t_rows) - x0; break;
+    case ScoreSpace::kVelocity:
+      err = scheduler.velocity(scheduler.predicted_x0(pred, x_t, t_rows), scheduler.predicted_eps(pred, x_t, t_rows), t_rows) -
+            scheduler.velocity(x0, eps, t_rows);
+      break;
+  }
+  return err.pow(2).reshape({B, n, -1}).mean(2);
 }
 
 torch::Tensor DiffusionPolicy::Impl::sample(const torch::Tensor& obs, torch::Generator& gen) const {
@@ -242,6 +252,7 @@ void DiffusionPolicy::reinitialize(uint64_t seed) {
   fresh->obs_norm = impl_->obs_norm;
   fresh->act_norm = impl_->act_norm;
   fresh->score_weights = impl_->score_weights;
+  fresh->score_space = impl_->score_space;
   fresh->precision = impl_->precision;
   fresh->torch_denoise = impl_->torch_denoise;
   impl_ = std::move(fresh);
@@ -265,6 +276,41 @@ void DiffusionPolicy::set_inference_precision(InferencePrecision p) {
 
 InferencePrecision DiffusionPolicy::inference_precision() const { return impl_->precision; }
 ScoreWeights DiffusionPolicy::score_weights() const { return impl_->score_weights; }
+void DiffusionPolicy::set_score_space(ScoreSpace s) { impl_->score_space = s; }
+ScoreSpace DiffusionPolicy::score_space() const { return impl_->score_space; }
+
+ScoreSpace score_space_from(const std::string& name) {
+  if (name == "target") return ScoreSpace::kTarget;
+  if (name == "epsilon") return ScoreSpace::kEpsilon;
+  if (name == "sample") return ScoreSpace::kSample;
+  if (name == "v" || name == "v_prediction") return ScoreSpace::kVelocity;
+  throw Error("score space '" + name + "' is not one of target, epsilon, sample, v");
+}
+
+std::string to_string(ScoreSpace s) {
+  switch (s) {
+    case ScoreSpace::kTarget: return "target";
+    case ScoreSpace::kEpsilon: return "epsilon";
+    case ScoreSpace::kSample: return "sample";
+    case ScoreSpace::kVelocity: return "v";
+  }
+  return "?";
+}
+
+std::vector<float> DiffusionPolicy::loss_by_timestep(const Vec& obs, const Mat& chunk, uint64_t seed, int n_samples) const {
+  const int T = config().scheduler.num_train_timesteps;
+  if (n_samples < T || n_samples % T != 0)
+    throw Error("policy: loss_by_timestep needs a multiple of T_d = " + std::to_string(T) + " rows, got " + std::to_string(n_samples));
+  torch::Generator gen = make_generator(seed);
+  const Mat row = Eigen::Map<const Mat>(chunk.data(), 1, chunk.size());
+  // row i has timestep i mod T_d: the rows of timestep t are every T_d-th
+  const torch::Tensor l =
+      impl_->row_losses(impl_->obs_tensor(obs.transpose()), impl_->chunk_tensor(obs.transpose(), row), n_samples, gen)
+          .reshape({n_samples / T, T})
+          .mean(0)
+          .contiguous();
+  return std::vector<float>(l.data_ptr<float>(), l.data_ptr<float>() + T);
+}
 
 float DiffusionPolicy::expected_loss(const Vec& obs, const Mat& chunk, uint64_t seed, int n_samples) const {
   torch::Generator gen = make_generator(seed);

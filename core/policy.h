@@ -30,6 +30,15 @@ constexpr int kDefaultLossSamples = 512;
 /// training weights (the authors' released code).
 enum class ScoreWeights { kEma, kRaw };
 
+/// The space the expected loss is measured in. kTarget: the training objective's own (the paper's
+/// score). The three targets are conversions of one another at x_t, so a network trained with any of
+/// them can be scored in any: per timestep, with a v-trained network, the epsilon-space loss is
+/// alpha_bar_t times the v-space loss and the sample-space loss (1 - alpha_bar_t) times it (the
+/// scores then weight the timesteps differently).
+enum class ScoreSpace { kTarget, kEpsilon, kSample, kVelocity };
+ScoreSpace score_space_from(const std::string& name);  // "target" | "epsilon" | "sample" | "v"
+std::string to_string(ScoreSpace s);
+
 /// The arithmetic of inference (sampling and expected losses): float32, or bfloat16 products with
 /// float32 accumulation (an option, faster on CPUs with AVX-512 BF16; its agreement with float32 is
 /// measured by tests/bench/precision_agreement). Training is always float32.
@@ -76,6 +85,9 @@ class DiffusionPolicy {
   /// Which weights expected_loss, expected_losses and decide score with (sampling always uses the EMA).
   void set_score_weights(ScoreWeights w);
   ScoreWeights score_weights() const;
+  /// The space every expected loss of this policy is measured in (default: the training target's).
+  void set_score_space(ScoreSpace s);
+  ScoreSpace score_space() const;
   /// Inference arithmetic for sample, decide and the expected losses (default float32). bfloat16
   /// throws Error in a build without oneDNN.
   void set_inference_precision(InferencePrecision p);
@@ -101,6 +113,10 @@ class DiffusionPolicy {
   LossQuantile loss_quantile(const ChunkDataset& data, double alpha, uint64_t seed,
                              int n_samples = kDefaultLossSamples, bool screen = true,
                              const ProgressFn& progress = {}) const;
+  /// The expected loss of (obs, chunk) per diffusion timestep: T_d means, each over n_samples / T_d
+  /// rows of fresh noise (n_samples a multiple of T_d); their mean is expected_loss() with the same
+  /// seed. For asking where along t two kinds of states separate.
+  std::vector<float> loss_by_timestep(const Vec& obs, const Mat& chunk, uint64_t seed, int n_samples = kDefaultLossSamples) const;
   /// Sampling plus expected loss of the sampled chunk: what the robot does at every decision.
   Decision decide(const Vec& obs, uint64_t seed, int n_samples = kDefaultLossSamples) const;
 

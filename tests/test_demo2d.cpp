@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <filesystem>
+#include <map>
 #include <fstream>
 #include <set>
 #include <sstream>
@@ -20,9 +21,20 @@ TEST(Demo2d, QuickRunWritesEveryFile) {
   fs::remove_all(o.out);
   const Demo2dResult r = run_demo2d(o);
 
-  for (const char* f : {"fig2_regions.csv", "fig2_regions.png", "loss_field.png", "summary.md"})
+  for (const char* f : {"fig2_regions.csv", "fig2_regions.png", "loss_field.png", "summary.md", "fig2_loss_by_timestep.csv",
+                        "fig2_loss_by_timestep.png"})
     EXPECT_TRUE(fs::exists(o.out + "/" + f)) << f;
-  EXPECT_EQ(r.files.size(), 4u);
+  EXPECT_EQ(r.files.size(), 6u);
+  {  // the loss by timestep: every space but the target's own, every region, every timestep
+    std::ifstream t_csv(o.out + "/fig2_loss_by_timestep.csv");
+    std::string line;
+    std::getline(t_csv, line);
+    EXPECT_EQ(line, "space,region,t,mean_loss");
+    std::map<std::string, int> rows;
+    while (std::getline(t_csv, line)) ++rows[line.substr(0, line.find(','))];
+    EXPECT_EQ(rows.size(), 3u);
+    for (const auto& [space, n] : rows) EXPECT_EQ(n, 3 * 16) << space;  // 3 regions x T_d
+  }
 
   std::ifstream csv(o.out + "/fig2_regions.csv");
   std::string header;

@@ -92,6 +92,34 @@ TEST_F(BimodalPolicy, ExpectedLossIsSeededAndStable) {
   EXPECT_LT(std::abs(a - b), 0.5f * std::max(a, b));
 }
 
+// The loss split by timestep averages back to the expected loss, and the scores in other spaces are
+// the conversions the targets imply: for a v-trained network, per timestep, epsilon-space loss =
+// alpha_bar_t * v-loss and sample-space loss = (1 - alpha_bar_t) * v-loss, so the two ratios add up
+// to 1 and the epsilon ratio falls as the noise grows.
+TEST_F(BimodalPolicy, LossByTimestepAveragesToTheExpectedLossAndConvertsBetweenSpaces) {
+  ASSERT_EQ(policy_->config().scheduler.prediction, PredictionType::kVelocity);
+  const Vec obs = data_->obs.row(5).transpose();
+  const Mat chunk = data_->chunk(5);
+  const int T = policy_->config().scheduler.num_train_timesteps;
+  const std::vector<float> v = policy_->loss_by_timestep(obs, chunk, 7, 8 * T);
+  ASSERT_EQ(v.size(), static_cast<size_t>(T));
+  EXPECT_NEAR(std::accumulate(v.begin(), v.end(), 0.0) / T, policy_->expected_loss(obs, chunk, 7, 8 * T), 1e-5);
+  auto in_space = [&](ScoreSpace s) {
+    policy_->set_score_space(s);
+    std::vector<float> l = policy_->loss_by_timestep(obs, chunk, 7, 8 * T);
+    policy_->set_score_space(ScoreSpace::kTarget);
+    return l;
+  };
+  const std::vector<float> eps = in_space(ScoreSpace::kEpsilon), x0 = in_space(ScoreSpace::kSample), vv = in_space(ScoreSpace::kVelocity);
+  for (int t = 0; t < T; ++t) {
+    const size_t i = static_cast<size_t>(t);
+    EXPECT_NEAR(vv[i], v[i], 1e-4 * v[i] + 1e-7) << "t " << t;
+    EXPECT_NEAR(eps[i] / v[i] + x0[i] / v[i], 1.0, 1e-3) << "t " << t;
+    if (t > 0) EXPECT_LT(eps[i] / v[i], eps[i - 1] / v[i - 1]) << "alpha_bar falls with t";
+  }
+  EXPECT_THROW(policy_->loss_by_timestep(obs, chunk, 7, T + 1), Error);
+}
+
 TEST_F(BimodalPolicy, BatchedLossesMatchOneByOne) {
   ChunkDataset few = *data_;
   few.obs = data_->obs.topRows(10);

@@ -23,6 +23,7 @@ struct DiffusionPolicy::Impl {
   // have no const forward, and inference does not change them.
   mutable nn::ConditionalUnet1D ema{nullptr};
   ScoreWeights score_weights = ScoreWeights::kEma;
+  ScoreSpace score_space = ScoreSpace::kTarget;
   /// The network that scores the expected loss (a handle sharing the module).
   nn::ConditionalUnet1D scorer() const { return score_weights == ScoreWeights::kRaw ? model : ema; }
   nn::NoiseScheduler scheduler;
