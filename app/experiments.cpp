@@ -108,6 +108,26 @@ ui::Rgb method_color(const std::string& m) {
   return kMethodColors[3];
 }
 
+bool stored_config_matches(const std::string& path, const ExperimentConfig& config) {
+  if (!fs::exists(path)) return false;
+  nlohmann::json stored;
+  try {
+    stored = nlohmann::json::parse(read_text(path));
+  } catch (const nlohmann::json::exception& e) {
+    throw Error(path + ": not a config written by this program (" + std::string(e.what()) + ")");
+  }
+  // A key the file lacks was written by an older build, before the key existed: it had the value
+  // every preset has, so the preset's own value stands in for it.
+  nlohmann::json merged;
+  try {
+    merged = nlohmann::json::parse(to_json_text(preset(config.preset)));
+  } catch (const Error&) {
+    merged = nlohmann::json::object();
+  }
+  merged.merge_patch(stored);
+  return merged == nlohmann::json::parse(to_json_text(config));
+}
+
 ExperimentConfig resolve_config(const std::string& task, const std::string& config_file) {
   if (!config_file.empty()) {
     ExperimentConfig c = load_experiment_config(config_file);
@@ -138,7 +158,7 @@ DaggerRunResult run_dagger(const ExperimentConfig& config, const DaggerRunOption
   // A resume point: out/resume/latest.json names the folder of the latest complete one.
   nlohmann::json resume;
   if (fs::exists(resume_root + "/latest.json")) {
-    if (!fs::exists(o.out + "/config.json") || read_text(o.out + "/config.json") != config_text)
+    if (!stored_config_matches(o.out + "/config.json", config))
       throw Error(o.out + "/config.json: a stopped run with another config is in this folder (its resume point is in " + resume_root +
                   "); remove the folder or choose another --out");
     try {
@@ -288,7 +308,7 @@ TrainRunResult run_train(const ExperimentConfig& config, const TrainOptions& o) 
   const std::string resume_dir = o.out + "/resume", config_text = to_json_text(config) + "\n";
   nlohmann::json resume;  // {"step", "train_s", "eval_s"} of the resume point, null for a fresh run
   if (fs::exists(resume_dir + "/progress.json")) {
-    if (read_text(o.out + "/config.json") != config_text)
+    if (!stored_config_matches(o.out + "/config.json", config))
       throw Error(o.out + "/config.json: a stopped run with another config is in this folder (its resume point is " + resume_dir +
                   "); remove the folder or choose another --out");
     try {
@@ -410,6 +430,7 @@ TrainRunResult run_train(const ExperimentConfig& config, const TrainOptions& o) 
   if (!o.threshold.empty()) {
     if (o.threshold != "screened" && o.threshold != "both") throw Error("train: --threshold is screened or both, got '" + o.threshold + "'");
     policy.set_score_weights(config.method.score_raw_weights ? ScoreWeights::kRaw : ScoreWeights::kEma);
+    policy.set_score_space(score_space_from(config.method.score_space));
     auto set = [&](bool screen) {
       ProgressBar bar(screen ? "threshold, screened" : "threshold, every pair at all rows", "loss");
       const auto t = std::chrono::steady_clock::now();
@@ -742,12 +763,12 @@ void run_eval(const ExperimentConfig& config, const EvalOptions& o) {
   // Every finished cell (RQ1, or RQ2 and RQ3, of one method and seed) is a file in out/cells; a
   // stopped evaluation rerun with the same config skips them, losing at most the cell in progress.
   const std::string config_text = to_json_text(config) + "\n";
-  if (fs::exists(o.out + "/config.json") && read_text(o.out + "/config.json") != config_text && !fs::is_empty(o.out + "/cells"))
+  if (fs::exists(o.out + "/config.json") && !stored_config_matches(o.out + "/config.json", config) && !fs::is_empty(o.out + "/cells"))
     throw Error(o.out + "/config.json: finished cells of another config are in " + o.out +
                 "/cells; remove the folder or choose another --out");
   if (o.cell.empty()) {
     write_text(o.out + "/config.json", config_text);
-  } else if (!fs::exists(o.out + "/config.json") || read_text(o.out + "/config.json") != config_text) {
+  } else if (!stored_config_matches(o.out + "/config.json", config)) {
     // a cell's process (eval --jobs) runs in the folder its parent prepared, and only reads it
     throw Error(o.out + "/config.json: --cell runs a cell of the evaluation whose config this file holds, and it holds another");
   }
@@ -990,13 +1011,14 @@ void run_eval(const ExperimentConfig& config, const EvalOptions& o) {
           : fmt::format("{} training steps per update, continuing from the previous weights", config.train.steps);
   std::string md = fmt::format("# Evaluation on {} (preset {}, expert {})\n\n{} seed(s), {} rollouts per measurement{}. "
                                "Schedule: N_i {}, N_f {}, N_d {}, alpha {}, K {} (the gate scores every {}), T_L {}, T_p {}, T_a {}; {}. "
-                               "Thresholds over {} training pairs; the loss is scored with the {} weights.\n\n",
+                               "Thresholds over {} training pairs; the loss is scored with the {} weights, in {} space.\n\n",
                                config.task, config.preset, config.expert, o.seeds, o.episodes,
                                o.quick ? " (quick run: tiny budgets and 3-member ensembles, a smoke test; read with care)" : "",
                                d.initial_demos, d.final_demos, d.demos_per_update, config.method.alpha, d.patience, to_string(d.gate_every),
                                d.time_limit, config.policy.horizon, config.policy.action_steps, budget,
                                config.method.calibration_pairs > 0 ? fmt::format("at most {}", config.method.calibration_pairs) : "all",
-                               config.method.score_raw_weights ? "raw training" : "EMA");
+                               config.method.score_raw_weights ? "raw training" : "EMA",
+                               config.method.score_space == "target" ? "the training target's" : config.method.score_space);
   md += fmt::format("## Table I: failure prediction (RQ1)\n\nPolicies trained on N_D = {} demonstrations, rolled out without intervention. "
                     "They are trained like BC ({}). "
                     "Positive = the rule would have asked; actual positive = the episode failed. TP, FP, TN, FN are summed over seeds; "

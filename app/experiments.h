@@ -16,6 +16,11 @@
 
 namespace dd::app {
 
+/// Whether the config file at `path` (config.json of a run folder) holds `config`: the same values,
+/// with keys the file lacks (written before they existed) taken as the preset's. False when there is
+/// no file; throws Error naming it when it is not JSON.
+bool stored_config_matches(const std::string& path, const ExperimentConfig& config);
+
 /// --task picks the preset of the same name (push: the two-expert variant); --config overrides it.
 ExperimentConfig resolve_config(const std::string& task, const std::string& config_file);
 

@@ -77,7 +77,7 @@ void apply_dagger(const json& j, DaggerConfig& d) {
 
 void apply_method(const json& j, MethodConfig& m) {
   require_known_keys(j, {"alpha", "members", "loss_samples", "calibration_pairs", "screen_threshold", "score_weights", "risk_quantile",
-                         "critic_steps", "precision"},
+                         "critic_steps", "precision", "score_space"},
                      "method");
   read(j, "alpha", m.alpha, "method");
   read(j, "members", m.members, "method");
@@ -91,6 +91,14 @@ void apply_method(const json& j, MethodConfig& m) {
     read(j, "score_weights", w, "method");
     if (w != "ema" && w != "raw") throw Error("method.score_weights: '" + w + "' is not one of ema, raw");
     m.score_raw_weights = w == "raw";
+  }
+  if (j.contains("score_space")) {
+    read(j, "score_space", m.score_space, "method");
+    try {
+      score_space_from(m.score_space);  // the one list of names
+    } catch (const Error& e) {
+      throw Error(std::string("method.score_space: ") + e.what());
+    }
   }
   if (j.contains("precision")) {
     read(j, "precision", m.precision, "method");
@@ -106,7 +114,7 @@ json method_json(const MethodConfig& m) {
   return json{{"alpha", m.alpha}, {"members", m.members}, {"loss_samples", m.loss_samples},
               {"calibration_pairs", m.calibration_pairs}, {"screen_threshold", m.screen_threshold},
               {"score_weights", m.score_raw_weights ? "raw" : "ema"}, {"risk_quantile", m.risk_quantile}, {"critic_steps", m.critic.steps},
-              {"precision", m.precision}};
+              {"precision", m.precision}, {"score_space", m.score_space}};
 }
 
 json dagger_json(const DaggerConfig& d) {

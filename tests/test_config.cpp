@@ -129,7 +129,7 @@ TEST(ExperimentConfig, ProtocolOptionsReadFromAFile) {
 expert: ccw
 train: {from_scratch: true, epochs: 300, max_steps: 5000}
 dagger: {gate_every: step}
-method: {score_weights: raw, calibration_pairs: 500}
+method: {score_weights: raw, calibration_pairs: 500, score_space: epsilon}
 )");
   const ExperimentConfig c = load_experiment_config(path);
   EXPECT_EQ(c.expert, "ccw");
@@ -139,6 +139,7 @@ method: {score_weights: raw, calibration_pairs: 500}
   EXPECT_EQ(c.dagger.gate_every, GateCadence::kStep);
   EXPECT_TRUE(c.method.score_raw_weights);
   EXPECT_EQ(c.method.calibration_pairs, 500);
+  EXPECT_EQ(c.method.score_space, "epsilon");
   // and they round-trip through the JSON every run writes beside its results
   EXPECT_NE(to_json_text(c).find("\"gate_every\": \"step\""), std::string::npos);
   EXPECT_NE(to_json_text(c).find("\"score_weights\": \"raw\""), std::string::npos);
@@ -150,6 +151,7 @@ TEST(ExperimentConfig, BadProtocolOptionsNameTheFileAndKey) {
            {"preset: stack\ndagger: {gate_every: episode}\n", "dagger.gate_every"},
            {"preset: stack\nmethod: {score_weights: best}\n", "method.score_weights"},
            {"preset: stack\nmethod: {precision: float16}\n", "method.precision"},
+           {"preset: stack\nmethod: {score_space: x0}\n", "method.score_space"},
            {"preset: stack\ntrain: {epochs: -1}\n", "train.epochs"}}) {
     const std::string path = write_config("dd_bad_protocol.yaml", text);
     try {

@@ -12,6 +12,7 @@
 #include "app/experiments.h"
 #include "core/dataset.h"
 #include "core/evaluation.h"
+#include "core/text_file.h"
 #include "core/method.h"
 #include "envs/registry.h"
 #include "ui/image_io.h"
@@ -175,6 +176,31 @@ TEST(DaggerNav2d, SharedRq1PoliciesAreWhatEachMethodsOwnUpdateTrains) {
       EXPECT_NEAR(a.score, b.score, 1e-5f * std::abs(a.score) + 1e-8f) << "seed " << seed;
     }
   }
+  fs::remove_all(dir);
+}
+
+// A run folder's config.json written before a key existed still holds the same config (the key at
+// the preset's value); a different value, or a different preset, does not.
+TEST(DaggerNav2d, StoredConfigsFromOlderBuildsStillMatch) {
+  const ExperimentConfig c = preset("stack");
+  const std::string dir = temp_dir("stored_config");
+  fs::create_directories(dir);
+  const std::string path = dir + "/config.json";
+  EXPECT_FALSE(stored_config_matches(path, c)) << "no file";
+  nlohmann::json j = nlohmann::json::parse(to_json_text(c));
+  write_text(path, j.dump(2));
+  EXPECT_TRUE(stored_config_matches(path, c));
+  j["method"].erase("score_space");  // as an older build wrote it
+  write_text(path, j.dump(2));
+  EXPECT_TRUE(stored_config_matches(path, c));
+  ExperimentConfig other = c;
+  other.method.score_space = "epsilon";
+  EXPECT_FALSE(stored_config_matches(path, other));
+  other = c;
+  other.train.steps += 1;
+  EXPECT_FALSE(stored_config_matches(path, other));
+  write_text(path, "{not json");
+  EXPECT_THROW(stored_config_matches(path, c), Error);
   fs::remove_all(dir);
 }
 
