@@ -22,6 +22,7 @@ PACKAGES=(
   libyaml-cpp-dev libcli11-dev libspdlog-dev libfmt-dev nlohmann-json3-dev
   libgtest-dev libgmock-dev libbenchmark-dev
   xvfb xauth xdotool fonts-dejavu-core
+  python3-h5py
 )
 
 log() { printf '\033[1m[quickstart]\033[0m %s\n' "$*" >&2; }

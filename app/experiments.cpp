@@ -148,6 +148,28 @@ TrainConfig rq1_training(const ExperimentConfig& c) {
   return t;
 }
 
+namespace {
+
+// The resume point a stopped run left in `out` (the JSON file `marker`, with the integer fields
+// `required`), or null when there is none. A point left by a run with another config is refused.
+nlohmann::json read_resume_point(const std::string& out, const std::string& marker, const ExperimentConfig& config,
+                                 const std::vector<std::string>& required) {
+  if (!fs::exists(marker)) return nullptr;
+  if (!stored_config_matches(out + "/config.json", config))
+    throw Error(out + "/config.json: a stopped run with another config is in this folder (its resume point is " + marker +
+                "); remove the folder or choose another --out");
+  nlohmann::json point;
+  try {
+    point = nlohmann::json::parse(read_text(marker));
+    for (const std::string& key : required) point.at(key).get<int64_t>();
+  } catch (const nlohmann::json::exception& e) {
+    throw Error(marker + ": not a resume point (" + std::string(e.what()) + ")");
+  }
+  return point;
+}
+
+}  // namespace
+
 DaggerRunResult run_dagger(const ExperimentConfig& config, const DaggerRunOptions& o, std::unique_ptr<Method>* method_out) {
   config.validate();
   if (o.out.empty()) throw Error("dagger: an output folder is required (--out)");
@@ -156,22 +178,11 @@ DaggerRunResult run_dagger(const ExperimentConfig& config, const DaggerRunOption
   result.dataset = o.out + "/dataset.hdf5";
   const std::string config_text = to_json_text(config) + "\n", resume_root = o.out + "/resume", log_path = o.out + "/queries.jsonl";
   // A resume point: out/resume/latest.json names the folder of the latest complete one.
-  nlohmann::json resume;
-  if (fs::exists(resume_root + "/latest.json")) {
-    if (!stored_config_matches(o.out + "/config.json", config))
-      throw Error(o.out + "/config.json: a stopped run with another config is in this folder (its resume point is in " + resume_root +
-                  "); remove the folder or choose another --out");
-    try {
-      resume = nlohmann::json::parse(read_text(resume_root + "/latest.json"));
-      resume.at("update").get<int>();
-      resume.at("log_bytes").get<uintmax_t>();
-    } catch (const nlohmann::json::exception& e) {
-      throw Error(resume_root + "/latest.json: not a resume point (" + std::string(e.what()) + ")");
-    }
-  } else if (fs::exists(result.dataset)) {
+  const nlohmann::json resume = read_resume_point(o.out, resume_root + "/latest.json", config, {"update", "log_bytes"});
+  if (resume.is_null() && fs::exists(result.dataset)) {
     throw Error(result.dataset + ": already exists; a run never mixes its data into an earlier run's (choose another --out)");
   }
-  const std::string resume_dir = resume.is_null() ? "" : resume_root + "/update_" + std::to_string(resume["update"].get<int>());
+  const std::string resume_dir = resume.is_null() ? "" : resume_root + "/update_" + std::to_string(resume.at("update").get<int>());
   if (!resume.is_null()) {
     // the data set and the query log as they stood at the resume point
     if (fs::exists(resume_dir + "/dataset.hdf5")) {
@@ -180,7 +191,7 @@ DaggerRunResult run_dagger(const ExperimentConfig& config, const DaggerRunOption
     } else {
       fs::remove(result.dataset);
     }
-    if (fs::exists(log_path)) fs::resize_file(log_path, resume["log_bytes"].get<uintmax_t>());
+    if (fs::exists(log_path)) fs::resize_file(log_path, resume.at("log_bytes").get<uintmax_t>());
   }
   write_text(o.out + "/config.json", config_text);
 
@@ -306,18 +317,8 @@ TrainRunResult run_train(const ExperimentConfig& config, const TrainOptions& o) 
   result.demos = static_cast<int>(demos.size());
   // A stopped run left a resume point (out/resume): continue it when it is the same run.
   const std::string resume_dir = o.out + "/resume", config_text = to_json_text(config) + "\n";
-  nlohmann::json resume;  // {"step", "train_s", "eval_s"} of the resume point, null for a fresh run
-  if (fs::exists(resume_dir + "/progress.json")) {
-    if (!stored_config_matches(o.out + "/config.json", config))
-      throw Error(o.out + "/config.json: a stopped run with another config is in this folder (its resume point is " + resume_dir +
-                  "); remove the folder or choose another --out");
-    try {
-      resume = nlohmann::json::parse(read_text(resume_dir + "/progress.json"));
-      resume.at("step").get<int>();
-    } catch (const nlohmann::json::exception& e) {
-      throw Error(resume_dir + "/progress.json: not a resume point (" + std::string(e.what()) + ")");
-    }
-  }
+  // {"step", "train_s", "eval_s"} of the resume point, null for a fresh run
+  const nlohmann::json resume = read_resume_point(o.out, resume_dir + "/progress.json", config, {"step"});
   write_text(o.out + "/config.json", config_text);
 
   DiffusionPolicy policy(config.policy, config.train.seed);
@@ -328,7 +329,7 @@ TrainRunResult run_train(const ExperimentConfig& config, const TrainOptions& o) 
   auto env = make_env(config.task);
   auto actor = act_with(policy);
   const DaggerConfig& d = config.dagger;
-  const int resume_step = resume.is_null() ? 0 : resume["step"].get<int>();
+  const int resume_step = resume.is_null() ? 0 : resume.at("step").get<int>();
   {  // curve.csv: a fresh file, or the rows up to the resume point
     std::string kept = "step,success_rate,episodes,demos,outcomes\n";
     if (resume_step > 0) {

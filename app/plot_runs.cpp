@@ -82,6 +82,11 @@ Iterations iterations(const Run& r) {
   return it;
 }
 
+// Whether the run's method decides whether to ask (every method but BC).
+bool asks(const Run& r) {
+  return std::any_of(r.events.begin(), r.events.end(), [](const json& e) { return e["event"] == "decision"; });
+}
+
 std::pair<double, double> mean_and_std(const std::vector<double>& v) {
   if (v.empty()) return {NAN, NAN};
   double m = 0, s = 0;
@@ -120,7 +125,7 @@ std::vector<std::string> plot_runs(const PlotOptions& o) {
 
   // Figure 4: mean wall-clock per iteration and its spread over iterations, per method.
   {
-    std::string csv = "method,iterations,train_s,train_std,threshold_s,threshold_std,inference_s,inference_std,total_s\n";
+    std::string csv = "method,iterations,train_s,train_std,threshold_s,threshold_std,inference_s,inference_std,total_s\n", not_drawn;
     ui::BarPanel panels[4];
     const char* titles[4] = {"training", "threshold setting", "inference", "total"};
     for (int k = 0; k < 4; ++k) {
@@ -135,22 +140,27 @@ std::vector<std::string> plot_runs(const PlotOptions& o) {
       const auto [th, th_sd] = mean_and_std(it.threshold);
       const auto [in, in_sd] = it.inference.empty() ? std::pair<double, double>{0, 0} : mean_and_std(it.inference);
       const double values[4] = {tr, th, in, tr + th + in}, errors[4] = {tr_sd, th_sd, in_sd, 0};
+      csv += fmt::format("{},{},{:.4f},{:.4f},{:.4f},{:.4f},{:.4f},{:.4f},{:.4f}\n", r.method, it.train.size(), tr, tr_sd, th, th_sd, in,
+                         in_sd, tr + th + in);
+      if (!asks(r)) {
+        // BC trains once, on its N_f demonstrations, and never asks: it has no iterations to draw
+        not_drawn += fmt::format("; {} trained once ({:.0f} s), not drawn", method_title(r.method), tr);
+        continue;
+      }
       for (int k = 0; k < 4; ++k) {
         panels[k].categories.push_back(method_title(r.method));
         panels[k].values.push_back(values[k]);
         panels[k].errors.push_back(errors[k]);
         panels[k].colors.push_back(method_color(r.method));
       }
-      csv += fmt::format("{},{},{:.4f},{:.4f},{:.4f},{:.4f},{:.4f},{:.4f},{:.4f}\n", r.method, it.train.size(), tr, tr_sd, th, th_sd, in,
-                         in_sd, tr + th + in);
     }
     if (!panels[0].values.empty()) {
       write_text(o.dir + "/wallclock.csv", csv);
       ui::write_png(o.dir + "/figure4_wallclock.png",
                     ui::hstack({ui::draw_bars(panels[0]), ui::draw_bars(panels[1]), ui::draw_bars(panels[2]), ui::draw_bars(panels[3])},
                                fmt::format("wall-clock per DAgger iteration (mean, whisker: std over iterations), seed {}; "
-                                           "inference counts the robot's decisions until the next update",
-                                           o.seed)));
+                                           "inference counts the robot's decisions until the next update{}",
+                                           o.seed, not_drawn)));
       written.push_back(o.dir + "/wallclock.csv");
       written.push_back(o.dir + "/figure4_wallclock.png");
     }
@@ -174,8 +184,7 @@ std::vector<std::string> plot_runs(const PlotOptions& o) {
     std::string csv = "method,step,event,control,score,threshold\n";
     double last_step = 0;
     for (const Run& r : runs) {
-      // BC never decides whether to ask: it has no row here
-      if (std::none_of(r.events.begin(), r.events.end(), [](const json& e) { return e["event"] == "decision"; })) continue;
+      if (!asks(r)) continue;  // BC never decides whether to ask: it has no row here
       ui::TimelineRow row;
       row.name = method_title(r.method);
       ui::LineSeries ratio;
@@ -212,10 +221,17 @@ std::vector<std::string> plot_runs(const PlotOptions& o) {
       if (!ratio.x.empty()) scores.series.push_back(std::move(ratio));
     }
     if (!timeline.rows.empty()) {
+      // both panels on one time axis, the episode's end rounded up to a multiple of 10 steps
+      const double x_end = std::max(10.0, std::ceil(last_step / 10) * 10);
+      timeline.x_max = x_end;
       std::vector<ui::Image> panels{ui::draw_timeline(timeline)};
       if (!scores.series.empty()) {
-        scores.series.push_back({"threshold", {0, last_step}, {1, 1}, {40, 40, 40}});
+        scores.series.push_back({"threshold", {0, x_end}, {1, 1}, {40, 40, 40}, /*markers=*/false});
         scores.y_min = 0;
+        scores.x_min = 0;
+        scores.x_max = x_end;
+        scores.margin_left = ui::TimelinePanel::kMarginLeft;
+        scores.margin_right = ui::TimelinePanel::kMarginRight;
         panels.push_back(ui::draw_lines(scores));
       }
       write_text(o.dir + "/episode.csv", csv);

@@ -197,58 +197,122 @@ DatasetWriter::DatasetWriter(std::string path, std::string env_args) : path_(std
   }
 }
 
-void DatasetWriter::append(const RecordedEpisode& ep) {
+namespace {
+
+void check_episode(const RecordedEpisode& ep, const std::string& path) {
   const auto T = static_cast<size_t>(ep.steps());
-  if (T == 0) throw Error(path_ + ": refusing to write an empty episode");
-  if (static_cast<size_t>(ep.actions.rows()) != T) throw Error(path_ + ": episode obs and actions differ in length");
+  if (T == 0) throw Error(path + ": refusing to write an empty episode");
+  if (static_cast<size_t>(ep.actions.rows()) != T) throw Error(path + ": episode obs and actions differ in length");
   if ((!ep.rewards.empty() && ep.rewards.size() != T) || (!ep.dones.empty() && ep.dones.size() != T) ||
       (!ep.intervention.empty() && ep.intervention.size() != T))
-    throw Error(path_ + ": episode rewards/dones/intervention differ in length from obs");
+    throw Error(path + ": episode rewards/dones/intervention differ in length from obs");
   if (!ep.obs.allFinite() || !ep.actions.allFinite())
-    throw Error(path_ + ": episode contains NaN or infinite observations or actions; not written");
+    throw Error(path + ": episode contains NaN or infinite observations or actions; not written");
+}
 
+// /data/demo_<index> with everything robomimic's SequenceDataset reads by default.
+void write_demo(hid_t data, int index, const RecordedEpisode& ep, const std::string& path) {
+  const auto T = static_cast<size_t>(ep.steps());
+  const std::string name = "demo_" + std::to_string(index);
+  H5 demo(H5Gcreate2(data, name.c_str(), H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), H5Gclose);
+  if (!demo.ok()) throw Error(path + ": could not create group /data/" + name);
+  {
+    H5 obs(H5Gcreate2(demo, "obs", H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), H5Gclose);
+    write_matrix(obs, "state", ep.obs, path);
+  }
+  {
+    // The observation after each step: the next row; after the last step, the last row again (the
+    // state the final action led to is not recorded).
+    Mat next(ep.obs.rows(), ep.obs.cols());
+    next.topRows(ep.obs.rows() - 1) = ep.obs.bottomRows(ep.obs.rows() - 1);
+    next.row(ep.obs.rows() - 1) = ep.obs.row(ep.obs.rows() - 1);
+    H5 next_obs(H5Gcreate2(demo, "next_obs", H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), H5Gclose);
+    write_matrix(next_obs, "state", next, path);
+  }
+  write_matrix(demo, "actions", ep.actions, path);
+  const std::vector<float> rewards = ep.rewards.empty() ? std::vector<float>(T, 0.f) : ep.rewards;
+  std::vector<uint8_t> dones = ep.dones;
+  if (dones.empty()) {
+    dones.assign(T, 0);
+    dones.back() = 1;
+  }
+  const std::vector<uint8_t> flags = ep.intervention.empty() ? std::vector<uint8_t>(T, 0) : ep.intervention;
+  write_vector(demo, "rewards", rewards, H5T_IEEE_F32LE, H5T_NATIVE_FLOAT, path);
+  write_vector(demo, "dones", dones, H5T_STD_U8LE, H5T_NATIVE_UINT8, path);
+  write_vector(demo, "intervention", flags, H5T_STD_U8LE, H5T_NATIVE_UINT8, path);
+  write_attr_int(demo, "num_samples", static_cast<int64_t>(T), path);
+  write_attr_int(demo, "success", ep.success ? 1 : 0, path);
+  write_attr_string(demo, "source", ep.source, path);
+}
+
+// A robomimic filter key: /mask/<key>, the demo names as fixed-length byte strings.
+void write_filter_key(hid_t file, const char* key, const std::vector<std::string>& demos, const std::string& path) {
+  if (H5Lexists(file, "mask", H5P_DEFAULT) <= 0) {
+    H5 group(H5Gcreate2(file, "mask", H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), H5Gclose);
+    if (!group.ok()) throw Error(path + ": could not create group /mask");
+  }
+  H5 mask(H5Gopen2(file, "mask", H5P_DEFAULT), H5Gclose);
+  if (H5Lexists(mask, key, H5P_DEFAULT) > 0) check(H5Ldelete(mask, key, H5P_DEFAULT), path, std::string("replacing /mask/") + key);
+  size_t width = 1;
+  for (const std::string& d : demos) width = std::max(width, d.size());
+  std::string packed(width * demos.size(), '\0');
+  for (size_t i = 0; i < demos.size(); ++i) std::memcpy(&packed[i * width], demos[i].data(), demos[i].size());
+  H5 type(H5Tcopy(H5T_C_S1), H5Tclose);
+  check(H5Tset_size(type, width), path, "a string type");
+  check(H5Tset_strpad(type, H5T_STR_NULLPAD), path, "a string type");
+  const hsize_t dims[1] = {demos.size()};
+  H5 space(H5Screate_simple(1, dims, nullptr), H5Sclose);
+  H5 ds(H5Dcreate2(mask, key, type, space, H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), H5Dclose);
+  if (!ds.ok()) throw Error(path + ": could not create dataset /mask/" + key);
+  if (!demos.empty()) check(H5Dwrite(ds, type, H5S_ALL, H5S_ALL, H5P_DEFAULT, packed.data()), path, std::string("writing /mask/") + key);
+}
+
+// The train/valid split of `episodes` demos: every tenth demo (demo_9, demo_19, ...) is for
+// validation, so a demo never changes sides as the file grows.
+void write_split(hid_t file, int episodes, const std::string& path) {
+  std::vector<std::string> train, valid;
+  for (int i = 0; i < episodes; ++i) (i % 10 == 9 ? valid : train).push_back("demo_" + std::to_string(i));
+  write_filter_key(file, "train", train, path);
+  write_filter_key(file, "valid", valid, path);
+}
+
+H5 create_file(const std::string& tmp, const std::string& env_args, const std::string& path) {
+  H5 file(H5Fcreate(tmp.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT), H5Fclose);
+  if (!file.ok()) throw Error(path + ": could not create the data set file");
+  H5 data(H5Gcreate2(file, "data", H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), H5Gclose);
+  write_attr_int(data, "total", 0, path);
+  write_attr_string(data, "env_args", env_args, path);
+  return file;
+}
+
+// Moves a finished temporary file over `path`, durably.
+void commit_file(const std::string& tmp, const std::string& path) {
+  fsync_path(tmp);
+  fs::rename(tmp, path);
+  fsync_path(fs::absolute(path).parent_path().string());
+}
+
+}  // namespace
+
+void DatasetWriter::append(const RecordedEpisode& ep) {
+  check_episode(ep, path_);
+  const auto T = static_cast<int64_t>(ep.steps());
   const std::string tmp = path_ + ".partial";
   std::error_code ec;
   fs::remove(tmp, ec);
   try {
-    if (fs::exists(path_)) {
-      fs::copy_file(path_, tmp, fs::copy_options::overwrite_existing);
-    } else {
-      H5 file(H5Fcreate(tmp.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT), H5Fclose);
-      if (!file.ok()) throw Error(path_ + ": could not create the data set file");
-      H5 data(H5Gcreate2(file, "data", H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), H5Gclose);
-      write_attr_int(data, "total", 0, path_);
-      write_attr_string(data, "env_args", env_args_, path_);
-    }
+    if (fs::exists(path_)) fs::copy_file(path_, tmp, fs::copy_options::overwrite_existing);
+    else create_file(tmp, env_args_, path_);
     {
       H5 file(H5Fopen(tmp.c_str(), H5F_ACC_RDWR, H5P_DEFAULT), H5Fclose);
       if (!file.ok()) throw Error(path_ + ": could not open a copy for appending");
       H5 data(H5Gopen2(file, "data", H5P_DEFAULT), H5Gclose);
-      const std::string name = "demo_" + std::to_string(episodes_);
-      H5 demo(H5Gcreate2(data, name.c_str(), H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), H5Gclose);
-      if (!demo.ok()) throw Error(path_ + ": could not create group /data/" + name);
-      H5 obs(H5Gcreate2(demo, "obs", H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), H5Gclose);
-      write_matrix(obs, "state", ep.obs, path_);
-      write_matrix(demo, "actions", ep.actions, path_);
-      std::vector<float> rewards = ep.rewards.empty() ? std::vector<float>(T, 0.f) : ep.rewards;
-      std::vector<uint8_t> dones = ep.dones;
-      if (dones.empty()) {
-        dones.assign(T, 0);
-        dones.back() = 1;
-      }
-      const std::vector<uint8_t> flags = ep.intervention.empty() ? std::vector<uint8_t>(T, 0) : ep.intervention;
-      write_vector(demo, "rewards", rewards, H5T_IEEE_F32LE, H5T_NATIVE_FLOAT, path_);
-      write_vector(demo, "dones", dones, H5T_STD_U8LE, H5T_NATIVE_UINT8, path_);
-      write_vector(demo, "intervention", flags, H5T_STD_U8LE, H5T_NATIVE_UINT8, path_);
-      write_attr_int(demo, "num_samples", static_cast<int64_t>(T), path_);
-      write_attr_int(demo, "success", ep.success ? 1 : 0, path_);
-      write_attr_string(demo, "source", ep.source, path_);
-      write_attr_int(data, "total", total_ + static_cast<int64_t>(T), path_);
+      write_demo(data, episodes_, ep, path_);
+      write_attr_int(data, "total", total_ + T, path_);
+      write_split(file, episodes_ + 1, path_);
       check(H5Fflush(file, H5F_SCOPE_GLOBAL), path_, "flush");
     }
-    fsync_path(tmp);
-    fs::rename(tmp, path_);
-    fsync_path(fs::absolute(path_).parent_path().string());
+    commit_file(tmp, path_);
   } catch (const fs::filesystem_error& e) {
     fs::remove(tmp, ec);
     throw Error(path_ + ": could not write the episode: " + e.code().message());
@@ -257,7 +321,35 @@ void DatasetWriter::append(const RecordedEpisode& ep) {
     throw;
   }
   ++episodes_;
-  total_ += static_cast<int64_t>(T);
+  total_ += T;
+}
+
+void write_dataset(const std::string& path, const std::string& env_args, const std::vector<RecordedEpisode>& episodes) {
+  for (const RecordedEpisode& ep : episodes) check_episode(ep, path);
+  const std::string tmp = path + ".partial";
+  std::error_code ec;
+  fs::remove(tmp, ec);
+  try {
+    {
+      H5 file = create_file(tmp, env_args, path);
+      H5 data(H5Gopen2(file, "data", H5P_DEFAULT), H5Gclose);
+      int64_t total = 0;
+      for (size_t i = 0; i < episodes.size(); ++i) {
+        write_demo(data, static_cast<int>(i), episodes[i], path);
+        total += episodes[i].steps();
+      }
+      write_attr_int(data, "total", total, path);
+      write_split(file, static_cast<int>(episodes.size()), path);
+      check(H5Fflush(file, H5F_SCOPE_GLOBAL), path, "flush");
+    }
+    commit_file(tmp, path);
+  } catch (const fs::filesystem_error& e) {
+    fs::remove(tmp, ec);
+    throw Error(path + ": could not write the data set: " + e.code().message());
+  } catch (...) {
+    fs::remove(tmp, ec);
+    throw;
+  }
 }
 
 DatasetInfo dataset_info(const std::string& path) {

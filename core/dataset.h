@@ -1,12 +1,19 @@
-// Data sets of episodes in robomimic's HDF5 layout, so robomimic and diffusion_policy can read them:
+// Data sets of episodes in robomimic's HDF5 layout, so robomimic and diffusion_policy read them with
+// their loaders' defaults:
 //
-//   /data                       attrs: total (steps, int64), env_args (JSON string)
-//   /data/demo_<i>              attrs: num_samples (int64), success (int), source (string)
-//   /data/demo_<i>/obs/<key>    (T x obs_dim) float32; this project writes one key, "state"
-//   /data/demo_<i>/actions      (T x action_dim) float32
-//   /data/demo_<i>/rewards      (T) float32
-//   /data/demo_<i>/dones        (T) uint8
-//   /data/demo_<i>/intervention (T) uint8: 1 where the expert (human or scripted) acted
+//   /data                            attrs: total (steps, int64), env_args (JSON string: env_name,
+//                                    type, env_kwargs, as robomimic's metadata reader expects)
+//   /data/demo_<i>                   attrs: num_samples (int64), success (int), source (string)
+//   /data/demo_<i>/obs/<key>         (T x obs_dim) float32; this project writes one key, "state"
+//   /data/demo_<i>/next_obs/<key>    (T x obs_dim) float32: obs shifted by one step; the last row
+//                                    repeats the last observation (the state after the final
+//                                    action is not recorded)
+//   /data/demo_<i>/actions           (T x action_dim) float32
+//   /data/demo_<i>/rewards           (T) float32
+//   /data/demo_<i>/dones             (T) uint8
+//   /data/demo_<i>/intervention      (T) uint8: 1 where the expert (human or scripted) acted
+//   /mask/train, /mask/valid         robomimic's filter keys: demo names as byte strings; every
+//                                    tenth demo (demo_9, demo_19, ...) is for validation
 //
 // Appending is crash-safe: every finished episode reaches the disk before append() returns, and a
 // process killed at any moment (kill -9, a full disk) leaves the previous complete file in place.
@@ -68,6 +75,10 @@ class DatasetWriter {
   int episodes_ = 0;
   int64_t total_ = 0;
 };
+
+/// Writes `episodes` as a new file at `path` in one pass (replacing any file there only once the new
+/// one is complete and on disk). Throws Error naming the file.
+void write_dataset(const std::string& path, const std::string& env_args, const std::vector<RecordedEpisode>& episodes);
 
 /// Reads every episode. Throws Error naming the file and the group or field that is missing or
 /// malformed. `info` (optional) receives the summary.

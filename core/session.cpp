@@ -294,11 +294,14 @@ void DaggerSession::save_state(const std::string& dir) const {
   if (in_episode_ || update_pending_)
     throw Error("session: its state is saved between episodes with no update pending (an episode or an update is under way)");
   std::filesystem::create_directories(dir);
-  // The data first, under a temporary name: a session.json on disk always has its data beside it.
-  const std::string data = dir + "/session.hdf5", tmp = temporary_path(data);
-  std::filesystem::remove(tmp);
-  {
-    DatasetWriter w(tmp, R"({"what": "session state"})");
+  // The data first: a session.json on disk always has its data beside it.
+  const std::string data = dir + "/session.hdf5";
+  if (expert_data_.empty() && robot_data_.empty()) {
+    std::error_code ec;
+    std::filesystem::remove(data, ec);  // no data yet: no file
+  } else {
+    std::vector<RecordedEpisode> episodes;
+    episodes.reserve(expert_data_.size() + robot_data_.size());
     for (const Episode& e : expert_data_) {
       RecordedEpisode r;
       r.obs = e.obs;
@@ -306,14 +309,11 @@ void DaggerSession::save_state(const std::string& dir) const {
       r.intervention.assign(static_cast<size_t>(e.obs.rows()), 1);
       r.success = true;
       r.source = "expert";
-      w.append(r);
+      episodes.push_back(std::move(r));
     }
-    for (const RecordedEpisode& r : robot_data_) w.append(r);
+    episodes.insert(episodes.end(), robot_data_.begin(), robot_data_.end());
+    write_dataset(data, R"({"what": "session state"})", episodes);
   }
-  std::error_code ec;
-  if (expert_data_.empty() && robot_data_.empty()) std::filesystem::remove(data, ec);  // no data yet: no file
-  else std::filesystem::rename(tmp, data, ec);
-  if (ec) throw Error(data + ": could not move the session's data into place: " + ec.message());
   nlohmann::json reports = nlohmann::json::array();
   for (const UpdateReport& r : reports_)
     reports.push_back({{"train_s", r.train_s}, {"threshold_s", r.threshold_s}, {"threshold", r.threshold}, {"pairs", r.pairs},

@@ -133,7 +133,7 @@ Image draw_lines(const LinePanel& p) {
   const int named = static_cast<int>(std::count_if(p.series.begin(), p.series.end(), [](const LineSeries& s) { return !s.name.empty(); }));
   const int legend_h = named > 0 ? 18 * named + 10 : 0;
   cv::Mat m(p.height + legend_h, p.width, CV_8UC3, cv::Scalar(255, 255, 255));
-  const int left = 80, right = 20, top = 50, bottom = 60;
+  const int left = p.margin_left, right = p.margin_right, top = 50, bottom = 60;
   const cv::Rect area(left, top, p.width - left - right, p.height - top - bottom);
   double x0 = INFINITY, x1 = -INFINITY, y0 = INFINITY, y1 = -INFINITY;
   for (const auto& s : p.series)
@@ -150,8 +150,10 @@ Image draw_lines(const LinePanel& p) {
     x0 -= half, x1 += half;
   }
   if (!(y1 > y0)) y1 = y0 + 1;
-  const double xstep = nice_step(x1 - x0, 6), ystep = nice_step(y1 - y0, 5);
-  x0 = std::floor(x0 / xstep) * xstep, x1 = std::ceil(x1 / xstep) * xstep;
+  const bool fixed_x = std::isfinite(p.x_min) && std::isfinite(p.x_max) && p.x_max > p.x_min;
+  if (fixed_x) x0 = p.x_min, x1 = p.x_max;
+  const double xstep = nice_step(x1 - x0, fixed_x ? 8 : 6), ystep = nice_step(y1 - y0, 5);
+  if (!fixed_x) x0 = std::floor(x0 / xstep) * xstep, x1 = std::ceil(x1 / xstep) * xstep;
   auto px = [&](double x, double y) {
     return cv::Point(area.x + static_cast<int>(std::lround((x - x0) / (x1 - x0) * area.width)),
                      area.y + area.height - static_cast<int>(std::lround((y - y0) / (y1 - y0) * area.height)));
@@ -173,14 +175,15 @@ Image draw_lines(const LinePanel& p) {
     for (size_t i = 0; i < s.x.size() && i < s.y.size(); ++i)
       if (std::isfinite(s.x[i]) && std::isfinite(s.y[i])) pts.push_back(px(s.x[i], s.y[i]));
     if (pts.size() > 1) cv::polylines(m, pts, false, scalar(s.color), 2, cv::LINE_AA);
-    for (const auto& q : pts) cv::circle(m, q, 4, scalar(s.color), cv::FILLED, cv::LINE_AA);
+    if (s.markers)
+      for (const auto& q : pts) cv::circle(m, q, 4, scalar(s.color), cv::FILLED, cv::LINE_AA);
   }
   // legend, below the x axis label
   int ly = p.height + 10;
   for (const auto& s : p.series) {
     if (s.name.empty()) continue;
     cv::line(m, {area.x + 10, ly - 4}, {area.x + 30, ly - 4}, scalar(s.color), 2, cv::LINE_AA);
-    cv::circle(m, {area.x + 20, ly - 4}, 4, scalar(s.color), cv::FILLED, cv::LINE_AA);
+    if (s.markers) cv::circle(m, {area.x + 20, ly - 4}, 4, scalar(s.color), cv::FILLED, cv::LINE_AA);
     text(m, s.name, {area.x + 36, ly}, 0.42);
     ly += 18;
   }
@@ -299,7 +302,7 @@ Image vstack(const std::vector<Image>& images) {
 }
 
 Image draw_timeline(const TimelinePanel& p) {
-  const int left = 110, right = 30, top = 50, row_h = 34, gap = 16, axis_h = 50;
+  const int left = TimelinePanel::kMarginLeft, right = TimelinePanel::kMarginRight, top = 50, row_h = 34, gap = 16, axis_h = 50;
   const int rows = static_cast<int>(p.rows.size());
   const int legend_h = 30;
   const int height = top + rows * (row_h + gap) + axis_h + legend_h;
@@ -309,8 +312,10 @@ Image draw_timeline(const TimelinePanel& p) {
     for (const auto& s : r.spans) x1 = std::max(x1, s.end);
     for (double k : r.marks) x1 = std::max(x1, k);
   }
+  const bool fixed_x = std::isfinite(p.x_max) && p.x_max > 0;
+  if (fixed_x) x1 = p.x_max;
   const double step = nice_step(x1, 8);
-  x1 = std::ceil(x1 / step) * step;
+  if (!fixed_x) x1 = std::ceil(x1 / step) * step;
   const int plot_w = p.width - left - right;
   auto x_of = [&](double v) { return left + static_cast<int>(std::lround(v / x1 * plot_w)); };
   const int axis_y = top + rows * (row_h + gap);

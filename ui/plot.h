@@ -30,12 +30,15 @@ struct LineSeries {
   std::string name;
   std::vector<double> x, y;
   Rgb color{60, 110, 210};
+  bool markers = true;              // a dot at every point
 };
 struct LinePanel {
   std::string title;
   std::string x_label, y_label;
   std::vector<LineSeries> series;
   double y_min = NAN, y_max = NAN;  // NaN: from the data
+  double x_min = NAN, x_max = NAN;  // both set: exactly this range (to line up with another panel)
+  int margin_left = 80, margin_right = 20;
   int width = 560, height = 420;
 };
 Image draw_lines(const LinePanel& panel);
@@ -82,7 +85,9 @@ struct TimelinePanel {
   std::string title, x_label, mark_label = "query";
   std::vector<TimelineRow> rows;
   std::vector<std::pair<std::string, Rgb>> legend;
+  double x_max = NAN;               // NaN: the data's end, rounded up to a tick
   int width = 900;
+  static constexpr int kMarginLeft = 110, kMarginRight = 30;
 };
 Image draw_timeline(const TimelinePanel& panel);
 
