@@ -33,6 +33,7 @@ namespace fs = std::filesystem;
 const char* kRegions[] = {"id_um", "id_mm", "ood"};
 const char* kRegionTitles[] = {"ID, UM", "ID, MM", "OOD"};
 const ui::Rgb kRegionColors[] = {{235, 120, 50}, {60, 170, 90}, {60, 110, 210}};
+const int kAlongSteps[] = {2, 4, 8};  // control steps along the paths from the multi-modal probes' starts
 
 struct Demos {
   std::vector<Episode> episodes;
@@ -125,11 +126,25 @@ std::array<Mat, 3> probe_states(const Nav2dRegions& regions, const Demos& demos,
     if (regions.label(p) == Nav2dRegion::kOutOfDistribution) found[2].push_back(state(p, nearest_velocity(demos.states, p)));
   }
   std::array<Mat, 3> out;
-  for (int k = 0; k < 3; ++k) {
-    out[static_cast<size_t>(k)].resize(runs, 4);
-    for (int r = 0; r < runs; ++r) out[static_cast<size_t>(k)].row(r) = found[static_cast<size_t>(k)][static_cast<size_t>(r)].transpose();
-  }
+  for (int k = 0; k < 3; ++k) out[static_cast<size_t>(k)] = stack_rows(found[static_cast<size_t>(k)], 4);
   return out;
+}
+
+// Probes `steps` control steps along the expert's paths from the multi-modal probes' start states
+// (the same starts; even probes go clockwise, odd ones counter-clockwise): by then the agent moves
+// along one path, so the decision there is no longer between two modes.
+Mat along_path_states(int steps, int runs, uint64_t seed) {
+  Nav2dEnv env;
+  std::vector<Vec> rows;
+  for (int r = 0; r < runs; ++r) {
+    Nav2dExpert expert(r % 2 == 0 ? Nav2dExpert::Mode::kClockwise : Nav2dExpert::Mode::kCounterClockwise);
+    const uint64_t s = seed * 7 + 90000 + static_cast<uint64_t>(r);
+    env.reset(s);
+    expert.reset(s);
+    for (int t = 0; t < steps; ++t) env.step(expert.act(env));
+    rows.push_back(env.observation());
+  }
+  return stack_rows(rows, 4);
 }
 
 // The expected diffusion loss of the chunk the policy generates at each observation row.
@@ -237,16 +252,14 @@ Demo2dResult run_demo2d(const Demo2dOptions& o) {
   tc.warmup_steps = std::min(100, o.train_steps / 10);
   tc.seed = o.seed;
   const ChunkDataset data = ChunkDataset::from_episodes(demos.episodes, pc.horizon);
-  DiffusionPolicy policy(pc, o.seed);
-  {
-    ProgressBar bar("[2/5] train policy  ", "loss");
-    train(policy, data, tc, bar.fn());
-  }
   PolicyEnsemble ensemble(pc, o.members, o.seed + 101);
   {
     ProgressBar bar(fmt::format("[2/5] train ensemble ({})", o.members), "loss");
     ensemble.train(demos.episodes, tc, bar.fn());
   }
+  // Diff-DAgger's policy is the member trained on all the demonstrations, as in eval's RQ1: both
+  // rules judge the same network's decisions, and the demo trains five policies instead of six.
+  DiffusionPolicy& policy = ensemble.member(0);
 
   // 3. Thresholds at alpha over (a subset of) the training pairs, as the query rules would set them.
   const ChunkDataset cal = data.subset(o.quick ? 200 : 1000, o.seed + 7);
@@ -267,7 +280,16 @@ Demo2dResult run_demo2d(const Demo2dOptions& o) {
     values[std::string(kRegions[k]) + "/diffusion_loss"] =
         decision_losses(policy, probes[static_cast<size_t>(k)], o.loss_samples, o.seed + 300 + static_cast<uint64_t>(k));
   }
-  fmt::print(stderr, "[4/5] probed {} states in each of the regions id_um, id_mm, ood\n", o.runs);
+  // The multi-modal probes' starts, a few steps along each path: does the verdict hang on one point?
+  std::vector<std::pair<std::string, Mat>> groups;  // every probe group: the three regions, then along the paths
+  for (int k = 0; k < 3; ++k) groups.emplace_back(kRegions[k], probes[static_cast<size_t>(k)]);
+  for (const int steps : kAlongSteps) {
+    groups.emplace_back("along_" + std::to_string(steps), along_path_states(steps, o.runs, o.seed));
+    values[groups.back().first + "/ensemble_std"] =
+        ensemble.action_std(groups.back().second, o.seed + 200 + static_cast<uint64_t>(groups.size() - 1));
+  }
+  fmt::print(stderr, "[4/5] probed {} states in each of the regions id_um, id_mm, ood and {} steps along the paths\n", o.runs,
+             fmt::join(kAlongSteps, ", "));
 
   // The same probes' loss split by diffusion timestep, in each space the loss can be scored in (the
   // targets convert into one another): where along t do the regions separate, and which score keeps
@@ -281,12 +303,12 @@ Demo2dResult run_demo2d(const Demo2dOptions& o) {
   };
   const int n_t = std::max(1, o.loss_samples / T_d) * T_d;
   std::map<std::string, std::vector<std::vector<float>>> by_t;  // "space/region" -> per probe, T_d losses
-  for (int k = 0; k < 3; ++k) {
-    const Mat& obs = probes[static_cast<size_t>(k)];
+  for (size_t k = 0; k < groups.size(); ++k) {
+    const Mat& obs = groups[k].second;
     const std::vector<Mat> chunks = policy.sample_batch(obs, o.seed + 300 + static_cast<uint64_t>(k));
     for (const ScoreSpace space : kSpaces) {
       policy.set_score_space(space);
-      auto& rows = by_t[to_string(space) + "/" + kRegions[k]];
+      auto& rows = by_t[to_string(space) + "/" + groups[k].first];
       for (Eigen::Index i = 0; i < obs.rows(); ++i)
         rows.push_back(policy.loss_by_timestep(obs.row(i).transpose(), chunks[static_cast<size_t>(i)],
                                                o.seed + 600 + static_cast<uint64_t>(k) * 100000 + static_cast<uint64_t>(i), n_t));
@@ -304,6 +326,29 @@ Demo2dResult run_demo2d(const Demo2dOptions& o) {
     for (const auto& row : by_t[key]) v.push_back(std::accumulate(row.begin(), row.end(), 0.0f) / static_cast<float>(row.size()));
     return v;
   };
+
+  // Every group's mean ensemble std and mean score in each space, for the summaries over seeds.
+  for (const auto& [group, obs] : groups) {
+    result.means["ensemble_std/" + group] = mean_std(values[group + "/ensemble_std"]).first;
+    for (const ScoreSpace space : kSpaces)
+      result.means["loss_" + to_string(space) + "/" + group] = mean_std(scores_of(to_string(space) + "/" + group)).first;
+  }
+  {  // along the paths: each group's numbers, the multi-modal start being 0 steps along
+    std::string along = "group,steps_along,measure,mean,std,n\n";
+    for (const auto& [group, obs] : groups) {
+      const std::string steps = group == "id_mm" ? "0" : group.rfind("along_", 0) == 0 ? group.substr(6) : "";
+      const auto [em, es] = mean_std(values[group + "/ensemble_std"]);
+      along += fmt::format("{},{},ensemble_std,{:.6g},{:.6g},{}\n", group, steps, em, es, obs.rows());
+      for (const ScoreSpace space : kSpaces) {
+        if (space == ScoreSpace::kTarget) continue;
+        const auto [lm, ls] = mean_std(scores_of(to_string(space) + "/" + group));
+        along += fmt::format("{},{},loss_{},{:.6g},{:.6g},{}\n", group, steps, to_string(space), lm, ls, obs.rows());
+      }
+    }
+    const std::string along_path = o.out + "/fig2_along_paths.csv";
+    write_text(along_path, along);
+    result.files.push_back(along_path);
+  }
 
   std::string csv = "region,metric,mean,std,n\n";
   for (const char* metric : {"ensemble_std", "diffusion_loss"}) {
@@ -441,8 +486,9 @@ Demo2dResult run_demo2d(const Demo2dOptions& o) {
   const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count();
   std::string md = fmt::format(
       "# 2-D multimodality demo (figure 2)\n\n"
-      "{} expert demonstrations ({} clockwise, {} counter-clockwise); one diffusion policy and a {}-member bootstrapped ensemble "
-      "(U-Net down_dims {}, {} objective), {} training steps each at batch {}; {} probe states per region; N_b = {}.{}\n\n"
+      "{} expert demonstrations ({} clockwise, {} counter-clockwise); a {}-member bootstrapped ensemble of diffusion policies "
+      "(U-Net down_dims {}, {} objective), {} training steps each at batch {}, whose member 0, trained on all the "
+      "demonstrations, is Diff-DAgger's policy; {} probe states per region; N_b = {}.{}\n\n"
       "## The claim\n\n"
       "The paper: an ensemble's action spread is high at an in-distribution multi-modal point, where its members disagree on "
       "the mode, while the diffusion loss is high only out of distribution.\n\n"
@@ -495,11 +541,36 @@ Demo2dResult run_demo2d(const Demo2dOptions& o) {
     per_space += fmt::format("  scored in {:8} loss ood/id_mm = {:5.2f}x: claim {}\n", to_string(space), m[2] / m[1],
                              holds ? "holds" : "does not hold");
   }
+  {
+    md += fmt::format("\n## Along the paths\n\n"
+                      "The multi-modal probes sit at rest on the start. The same starts, a few control steps along the expert's "
+                      "path (half clockwise, half counter-clockwise): the ensemble's spread over its value along the paths "
+                      "(claim: at least 2 at a multi-modal point), and out-of-distribution loss over the loss there, in each "
+                      "space (claim: at least 3). `fig2_along_paths.csv` has the numbers.\n\n"
+                      "| probes | ensemble / id_um |");
+    std::vector<ScoreSpace> shown;
+    for (const ScoreSpace space : kSpaces)
+      if (space != ScoreSpace::kTarget) shown.push_back(space);
+    for (const ScoreSpace space : shown) md += fmt::format(" ood / here, {} |", to_string(space));
+    md += "\n|---|---|";
+    for (size_t i = 0; i < shown.size(); ++i) md += "---|";
+    md += "\n";
+    for (const auto& [group, obs] : groups) {
+      if (group != "id_mm" && group.rfind("along_", 0) != 0) continue;
+      md += fmt::format("| {} | {:.2f}x |", group == "id_mm" ? "id_mm (at rest on the start)" : group.substr(6) + " steps along",
+                        result.means["ensemble_std/" + group] / result.means["ensemble_std/id_um"]);
+      for (const ScoreSpace space : shown) {
+        const std::string m = "loss_" + to_string(space) + "/";
+        md += fmt::format(" {:.2f}x |", result.means[m + "ood"] / result.means[m + group]);
+      }
+      md += "\n";
+    }
+  }
   md += fmt::format(
       "\nThresholds are the alpha-quantile over {} training pairs: ensemble std {:.4f} m, diffusion loss {:.4f}. "
       "A \"flag\" is one decision above the threshold (K = 1).\n\n"
       "Files: `fig2_regions.csv`, `fig2_regions.png` (figure 2b), `loss_field.png` (both measures over the plane), "
-      "`fig2_loss_by_timestep.csv` and `.png` (the probes' loss by timestep in each space). "
+      "`fig2_loss_by_timestep.csv` and `.png` (the probes' loss by timestep in each space), `fig2_along_paths.csv`. "
       "Took {}.\n",
       n_cal, std_threshold, loss_threshold, format_duration(seconds));
   const std::string md_path = o.out + "/summary.md";
@@ -514,6 +585,83 @@ Demo2dResult run_demo2d(const Demo2dOptions& o) {
   fmt::print("the same network's loss in each space (claim: ensemble id_mm/id_um >= 2 and loss ood/id_mm >= 3):\n{}", per_space);
   fmt::print("wrote {} files to {} in {}\n", result.files.size(), o.out, format_duration(seconds));
   return result;
+}
+
+std::vector<Demo2dResult> run_demo2d_seeds(const Demo2dOptions& o) {
+  if (o.seeds <= 1) return {run_demo2d(o)};
+  std::vector<Demo2dResult> runs;
+  std::vector<uint64_t> seeds;
+  for (int i = 0; i < o.seeds; ++i) {
+    Demo2dOptions one = o;
+    one.seed = o.seed + static_cast<uint64_t>(i);
+    one.out = o.out + "/seed_" + std::to_string(one.seed);
+    fmt::print(stderr, "=== seed {} ({} of {}) into {}\n", one.seed, i + 1, o.seeds, one.out);
+    runs.push_back(run_demo2d(one));
+    seeds.push_back(one.seed);
+  }
+  // Per seed and score: the claim's two ratios and whether it holds there.
+  auto ratio = [](const Demo2dResult& r, const std::string& num, const std::string& den) {
+    return r.means.at(num) / r.means.at(den);
+  };
+  const std::string prediction = o.prediction == "v_prediction" ? "v" : o.prediction;
+  std::string csv = "seed,space,ensemble_mm_over_um,loss_ood_over_mm,loss_ood_over_um,claim\n";
+  std::string md = fmt::format(
+      "# 2-D multimodality demo (figure 2) over {} seeds\n\n"
+      "Seeds {}, each a full run in `seed_<s>/` ({} objective). The claim: the ensemble's spread at the in-distribution "
+      "multi-modal point is at least 2x its value along the paths (id_mm / id_um), and the policy's loss out of "
+      "distribution at least 3x its value at the multi-modal point (ood / id_mm). The same network's loss is scored in each "
+      "space.\n\n| score | ensemble id_mm / id_um | loss ood / id_mm | loss ood / id_um | claim holds in |\n|---|---|---|---|---|\n",
+      o.seeds, fmt::join(seeds, ", "), o.prediction);
+  auto mean_sd = [](const std::vector<double>& v) {
+    double m = 0, s = 0;
+    for (double x : v) m += x;
+    m /= static_cast<double>(v.size());
+    for (double x : v) s += (x - m) * (x - m);
+    return fmt::format("{:.2f} +- {:.2f}", m, std::sqrt(s / static_cast<double>(v.size())));
+  };
+  std::string printed;
+  for (const std::string space : {"epsilon", "v", "sample"}) {
+    std::vector<double> ens, ood_mm, ood_um;
+    int holds = 0;
+    for (size_t i = 0; i < runs.size(); ++i) {
+      const std::string m = "loss_" + space + "/";
+      ens.push_back(ratio(runs[i], "ensemble_std/id_mm", "ensemble_std/id_um"));
+      ood_mm.push_back(ratio(runs[i], m + "ood", m + "id_mm"));
+      ood_um.push_back(ratio(runs[i], m + "ood", m + "id_um"));
+      const bool h = ens.back() >= 2 && ood_mm.back() >= 3;
+      holds += h;
+      csv += fmt::format("{},{},{:.4f},{:.4f},{:.4f},{}\n", seeds[i], space, ens.back(), ood_mm.back(), ood_um.back(),
+                         h ? "holds" : "does not hold");
+    }
+    const std::string title = space == prediction ? space + " (the training target: the paper's score)" : space;
+    md += fmt::format("| {} | {} | {} | {} | {} of {} seeds |\n", title, mean_sd(ens), mean_sd(ood_mm), mean_sd(ood_um), holds,
+                      runs.size());
+    printed += fmt::format("  scored in {:8} loss ood/id_mm = {}: claim holds in {} of {} seeds\n", space, mean_sd(ood_mm), holds,
+                           runs.size());
+  }
+  md += "\nMean +- std over seeds. Per seed: `fig2_seeds.csv`.\n\n## Along the paths\n\n"
+        "The multi-modal probes' starts, a few control steps along the expert's path: the ensemble's spread over its value "
+        "along the paths, and the out-of-distribution loss over the loss there, per space (mean +- std over seeds).\n\n"
+        "| probes | ensemble / id_um | ood / here, epsilon | ood / here, v | ood / here, sample |\n|---|---|---|---|---|\n";
+  std::vector<std::string> groups{"id_mm"};
+  for (const int steps : kAlongSteps) groups.push_back("along_" + std::to_string(steps));
+  for (const std::string& g : groups) {
+    std::vector<double> ens;
+    for (const auto& r : runs) ens.push_back(ratio(r, "ensemble_std/" + g, "ensemble_std/id_um"));
+    md += fmt::format("| {} | {} |", g == "id_mm" ? "id_mm (at rest on the start)" : g.substr(6) + " steps along", mean_sd(ens));
+    for (const std::string space : {"epsilon", "v", "sample"}) {
+      std::vector<double> v;
+      for (const auto& r : runs) v.push_back(ratio(r, "loss_" + space + "/ood", "loss_" + space + "/" + g));
+      md += " " + mean_sd(v) + " |";
+    }
+    md += "\n";
+  }
+  write_text(o.out + "/fig2_seeds.csv", csv);
+  write_text(o.out + "/summary.md", md);
+  fmt::print("\nover {} seeds (claim: ensemble id_mm/id_um >= 2 and loss ood/id_mm >= 3):\n{}wrote {}/summary.md and "
+             "{}/fig2_seeds.csv\n",
+             runs.size(), printed, o.out, o.out);
+  return runs;
 }
 
 }  // namespace dd::app

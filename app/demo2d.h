@@ -13,6 +13,7 @@
 #pragma once
 
 #include <cstdint>
+#include <map>
 #include <string>
 #include <vector>
 
@@ -33,6 +34,7 @@ struct Demo2dOptions {
   int field_loss_samples = 128;  // N_b for the field (cheaper; it is a picture)
   double alpha = 0.99;       // quantile for the query thresholds reported in the summary
   std::string prediction = "v_prediction";  // the diffusion objective: v_prediction, epsilon, sample
+  int seeds = 1;             // run_demo2d_seeds: seeds seed, seed + 1, ... (--full: 3)
 
   /// Shrinks everything for a run of about a minute.
   void apply_quick();
@@ -49,10 +51,20 @@ struct RegionStat {
 struct Demo2dResult {
   std::vector<RegionStat> stats;
   bool claim_holds = false;
+  /// "measure/group" -> the mean over the group's probes. Measures: ensemble_std, loss_<space> (the
+  /// expected loss scored in that space: target, epsilon, v, sample); groups: id_um, id_mm, ood,
+  /// along_<steps>.
+  std::map<std::string, double> means;
   std::vector<std::string> files;  // everything written
 };
 
-/// Runs the demo; throws dd::Error on failure (naming the file when writing fails).
+/// Runs the demo for options.seed into options.out; throws dd::Error on failure (naming the file when
+/// writing fails).
 Demo2dResult run_demo2d(const Demo2dOptions& options);
+
+/// With options.seeds == 1, run_demo2d. With more, runs each seed into out/seed_<s> and writes, in
+/// out, summary.md and fig2_seeds.csv: each score's ratios per seed, their mean and spread, and in how
+/// many seeds the paper's claim holds. Returns each seed's result.
+std::vector<Demo2dResult> run_demo2d_seeds(const Demo2dOptions& options);
 
 }  // namespace dd::app

@@ -1,5 +1,5 @@
-// The quick 2-D demo writes every file, its CSV has all three regions for both metrics, and its
-// pictures are readable images.
+// The 2-D demo writes every file, its CSVs have every region, measure and seed, and its pictures are
+// readable images.
 #include <gtest/gtest.h>
 
 #include <filesystem>
@@ -13,18 +13,46 @@
 
 namespace dd::app {
 
-TEST(Demo2d, QuickRunWritesEveryFile) {
+// Two seeds of a run smaller than --quick: each seed's folder has every file, and the summary over
+// seeds has every score.
+TEST(Demo2d, SeedsWriteEveryFileAndASummaryOverThem) {
   namespace fs = std::filesystem;
-  Demo2dOptions o;
-  o.apply_quick();
-  o.out = (fs::temp_directory_path() / ("dd_demo2d_" + std::to_string(::getpid()))).string();
-  fs::remove_all(o.out);
-  const Demo2dResult r = run_demo2d(o);
+  Demo2dOptions base;
+  base.apply_quick();
+  base.demos = 20;
+  base.train_steps = 120;
+  base.runs = 10;
+  base.grid = 8;
+  base.loss_samples = 64;
+  base.field_loss_samples = 32;
+  base.seeds = 2;
+  base.out = (fs::temp_directory_path() / ("dd_demo2d_" + std::to_string(::getpid()))).string();
+  fs::remove_all(base.out);
+  const std::vector<Demo2dResult> results = run_demo2d_seeds(base);
+  ASSERT_EQ(results.size(), 2u);
+  for (const char* f : {"summary.md", "fig2_seeds.csv"}) EXPECT_TRUE(fs::exists(base.out + "/" + f)) << f;
+  {  // one row per seed and score
+    std::ifstream seeds_csv(base.out + "/fig2_seeds.csv");
+    std::string line;
+    std::getline(seeds_csv, line);
+    EXPECT_EQ(line, "seed,space,ensemble_mm_over_um,loss_ood_over_mm,loss_ood_over_um,claim");
+    std::set<std::string> rows;
+    while (std::getline(seeds_csv, line)) rows.insert(line.substr(0, line.find(',', line.find(',') + 1)));
+    EXPECT_EQ(rows, (std::set<std::string>{"0,epsilon", "0,v", "0,sample", "1,epsilon", "1,v", "1,sample"}));
+  }
+  const Demo2dResult& r = results[0];
+  Demo2dOptions o = base;
+  o.out = base.out + "/seed_0";
+  for (const char* group : {"id_um", "id_mm", "ood", "along_2", "along_4", "along_8"})
+    for (const char* measure : {"ensemble_std", "loss_target", "loss_epsilon", "loss_v", "loss_sample"})
+      EXPECT_GT(r.means.count(std::string(measure) + "/" + group), 0u) << measure << "/" << group;
+  // the same states scored differently per seed: the two runs are not copies of each other
+  EXPECT_NE(results[0].means.at("loss_target/ood"), results[1].means.at("loss_target/ood"));
 
   for (const char* f : {"fig2_regions.csv", "fig2_regions.png", "loss_field.png", "summary.md", "fig2_loss_by_timestep.csv",
-                        "fig2_loss_by_timestep.png"})
+                        "fig2_loss_by_timestep.png", "fig2_along_paths.csv"})
     EXPECT_TRUE(fs::exists(o.out + "/" + f)) << f;
-  EXPECT_EQ(r.files.size(), 6u);
+  EXPECT_EQ(r.files.size(), 7u);
   {  // the loss by timestep: every space but the target's own, every region, every timestep
     std::ifstream t_csv(o.out + "/fig2_loss_by_timestep.csv");
     std::string line;
@@ -34,6 +62,15 @@ TEST(Demo2d, QuickRunWritesEveryFile) {
     while (std::getline(t_csv, line)) ++rows[line.substr(0, line.find(','))];
     EXPECT_EQ(rows.size(), 3u);
     for (const auto& [space, n] : rows) EXPECT_EQ(n, 3 * 16) << space;  // 3 regions x T_d
+  }
+  {  // along the paths: 6 groups x (ensemble + 3 spaces)
+    std::ifstream a_csv(o.out + "/fig2_along_paths.csv");
+    std::string line;
+    std::getline(a_csv, line);
+    EXPECT_EQ(line, "group,steps_along,measure,mean,std,n");
+    int rows = 0;
+    while (std::getline(a_csv, line)) ++rows;
+    EXPECT_EQ(rows, 6 * 4);
   }
 
   std::ifstream csv(o.out + "/fig2_regions.csv");
@@ -66,7 +103,7 @@ TEST(Demo2d, QuickRunWritesEveryFile) {
   std::ifstream md(o.out + "/summary.md");
   const std::string summary((std::istreambuf_iterator<char>(md)), std::istreambuf_iterator<char>());
   EXPECT_NE(summary.find(r.claim_holds ? "claim holds" : "claim does not hold"), std::string::npos);
-  fs::remove_all(o.out);
+  fs::remove_all(base.out);
 }
 
 }  // namespace dd::app

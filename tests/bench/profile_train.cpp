@@ -5,6 +5,7 @@
 #include <torch/torch.h>
 
 #include <cstdio>
+#include <cstdlib>
 #include <map>
 #include <sstream>
 #include <string>
@@ -26,6 +27,7 @@ int main(int argc, char** argv) {
   const int horizon = argc > 2 ? std::stoi(argv[2]) : 32, batch = argc > 3 ? std::stoi(argv[3]) : 128;
   const int steps = argc > 4 ? std::stoi(argv[4]) : 20;
   const int threads = set_num_threads();
+  if (std::getenv("DD_NO_MKLDNN")) at::globalContext().setUserEnabledMkldnn(false);  // libtorch's own convolutions, for comparison
   PolicyConfig c;
   c.obs_dim = 24;
   c.action_dim = 7;
