@@ -267,7 +267,8 @@ Demo2dResult run_demo2d(const Demo2dOptions& o) {
   float loss_threshold = 0, std_threshold = 0;
   {
     ProgressBar bar("[3/5] calibrate thresholds", "loss");
-    loss_threshold = quantile(policy.expected_losses(cal, o.seed + 11, o.loss_samples, bar.fn()), o.alpha);
+    // screened, as Diff-DAgger's own update sets it (the pairs far below the quantile keep a cheap estimate)
+    loss_threshold = policy.loss_quantile(cal, o.alpha, o.seed + 11, o.loss_samples, /*screen=*/true, bar.fn()).threshold;
   }
   std_threshold = quantile(ensemble.action_std(cal.obs, o.seed + 13), o.alpha);
 
@@ -277,8 +278,6 @@ Demo2dResult run_demo2d(const Demo2dOptions& o) {
   std::map<std::string, std::vector<float>> values;  // "region/metric" -> per-run values
   for (int k = 0; k < 3; ++k) {
     values[std::string(kRegions[k]) + "/ensemble_std"] = ensemble.action_std(probes[static_cast<size_t>(k)], o.seed + 200 + static_cast<uint64_t>(k));
-    values[std::string(kRegions[k]) + "/diffusion_loss"] =
-        decision_losses(policy, probes[static_cast<size_t>(k)], o.loss_samples, o.seed + 300 + static_cast<uint64_t>(k));
   }
   // The multi-modal probes' starts, a few steps along each path: does the verdict hang on one point?
   std::vector<std::pair<std::string, Mat>> groups;  // every probe group: the three regions, then along the paths
@@ -306,14 +305,13 @@ Demo2dResult run_demo2d(const Demo2dOptions& o) {
   for (size_t k = 0; k < groups.size(); ++k) {
     const Mat& obs = groups[k].second;
     const std::vector<Mat> chunks = policy.sample_batch(obs, o.seed + 300 + static_cast<uint64_t>(k));
-    for (const ScoreSpace space : kSpaces) {
-      policy.set_score_space(space);
-      auto& rows = by_t[to_string(space) + "/" + groups[k].first];
-      for (Eigen::Index i = 0; i < obs.rows(); ++i)
-        rows.push_back(policy.loss_by_timestep(obs.row(i).transpose(), chunks[static_cast<size_t>(i)],
-                                               o.seed + 600 + static_cast<uint64_t>(k) * 100000 + static_cast<uint64_t>(i), n_t));
+    const std::vector<ScoreSpace> spaces(std::begin(kSpaces), std::end(kSpaces));
+    for (Eigen::Index i = 0; i < obs.rows(); ++i) {
+      const std::vector<std::vector<float>> l = policy.loss_by_timestep(
+          obs.row(i).transpose(), chunks[static_cast<size_t>(i)], o.seed + 600 + static_cast<uint64_t>(k) * 100000 + static_cast<uint64_t>(i),
+          n_t, spaces);
+      for (size_t j = 0; j < spaces.size(); ++j) by_t[to_string(spaces[j]) + "/" + groups[k].first].push_back(l[j]);
     }
-    policy.set_score_space(ScoreSpace::kTarget);
   }
   // per space and region: the mean over probes at each t, and each probe's mean over t (the score)
   auto mean_over_probes = [&](const std::string& key, int t) {
@@ -326,6 +324,8 @@ Demo2dResult run_demo2d(const Demo2dOptions& o) {
     for (const auto& row : by_t[key]) v.push_back(std::accumulate(row.begin(), row.end(), 0.0f) / static_cast<float>(row.size()));
     return v;
   };
+  // The paper's score (the training target's space) of the chunk generated at each region's probes.
+  for (const char* region : kRegions) values[std::string(region) + "/diffusion_loss"] = scores_of(std::string("target/") + region);
 
   // Every group's mean ensemble std and mean score in each space, for the summaries over seeds.
   for (const auto& [group, obs] : groups) {

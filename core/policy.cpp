@@ -120,6 +120,11 @@ torch::Tensor DiffusionPolicy::Impl::expected_loss(const torch::Tensor& obs, con
 
 torch::Tensor DiffusionPolicy::Impl::row_losses(const torch::Tensor& obs, const torch::Tensor& chunks, int n_samples,
                                                 torch::Generator& gen) const {
+  return row_losses(obs, chunks, n_samples, gen, {score_space})[0];
+}
+
+std::vector<torch::Tensor> DiffusionPolicy::Impl::row_losses(const torch::Tensor& obs, const torch::Tensor& chunks, int n_samples,
+                                                             torch::Generator& gen, const std::vector<ScoreSpace>& spaces) const {
   torch::NoGradGuard no_grad;
   const int64_t B = obs.size(0), n = n_samples, T = config.scheduler.num_train_timesteps;
   // Condition each (pair, timestep) once: B * T rows instead of B * n.
@@ -141,17 +146,21 @@ torch::Tensor DiffusionPolicy::Impl::row_losses(const torch::Tensor& obs, const 
   // bfloat16: FastDenoiser's
   const torch::Tensor pred = precision == InferencePrecision::kFloat32 ? net->denoise(x_t, row_films)
                                                                        : fast_denoiser(*net)->denoise(x_t, row_films);
-  torch::Tensor err;
-  switch (score_space) {
-    case ScoreSpace::kTarget: err = pred - scheduler.target(x0, eps, t_rows); break;
-    case ScoreSpace::kEpsilon: err = scheduler.predicted_eps(pred, x_t, t_rows) - eps; break;
-    case ScoreSpace::kSample: err = scheduler.predicted_x0(pred, x_t, t_rows) - x0; break;
-    case ScoreSpace::kVelocity:
-      err = scheduler.velocity(scheduler.predicted_x0(pred, x_t, t_rows), scheduler.predicted_eps(pred, x_t, t_rows), t_rows) -
-            scheduler.velocity(x0, eps, t_rows);
-      break;
+  std::vector<torch::Tensor> out;
+  for (const ScoreSpace space : spaces) {
+    torch::Tensor err;
+    switch (space) {
+      case ScoreSpace::kTarget: err = pred - scheduler.target(x0, eps, t_rows); break;
+      case ScoreSpace::kEpsilon: err = scheduler.predicted_eps(pred, x_t, t_rows) - eps; break;
+      case ScoreSpace::kSample: err = scheduler.predicted_x0(pred, x_t, t_rows) - x0; break;
+      case ScoreSpace::kVelocity:
+        err = scheduler.velocity(scheduler.predicted_x0(pred, x_t, t_rows), scheduler.predicted_eps(pred, x_t, t_rows), t_rows) -
+              scheduler.velocity(x0, eps, t_rows);
+        break;
+    }
+    out.push_back(err.pow(2).reshape({B, n, -1}).mean(2));
   }
-  return err.pow(2).reshape({B, n, -1}).mean(2);
+  return out;
 }
 
 torch::Tensor DiffusionPolicy::Impl::sample(const torch::Tensor& obs, torch::Generator& gen) const {
@@ -298,18 +307,24 @@ std::string to_string(ScoreSpace s) {
 }
 
 std::vector<float> DiffusionPolicy::loss_by_timestep(const Vec& obs, const Mat& chunk, uint64_t seed, int n_samples) const {
+  return loss_by_timestep(obs, chunk, seed, n_samples, {impl_->score_space})[0];
+}
+
+std::vector<std::vector<float>> DiffusionPolicy::loss_by_timestep(const Vec& obs, const Mat& chunk, uint64_t seed, int n_samples,
+                                                                  const std::vector<ScoreSpace>& spaces) const {
   const int T = config().scheduler.num_train_timesteps;
   if (n_samples < T || n_samples % T != 0)
     throw Error("policy: loss_by_timestep needs a multiple of T_d = " + std::to_string(T) + " rows, got " + std::to_string(n_samples));
   torch::Generator gen = make_generator(seed);
   const Mat row = Eigen::Map<const Mat>(chunk.data(), 1, chunk.size());
   // row i has timestep i mod T_d: the rows of timestep t are every T_d-th
-  const torch::Tensor l =
-      impl_->row_losses(impl_->obs_tensor(obs.transpose()), impl_->chunk_tensor(obs.transpose(), row), n_samples, gen)
-          .reshape({n_samples / T, T})
-          .mean(0)
-          .contiguous();
-  return std::vector<float>(l.data_ptr<float>(), l.data_ptr<float>() + T);
+  std::vector<std::vector<float>> out;
+  for (const torch::Tensor& rows :
+       impl_->row_losses(impl_->obs_tensor(obs.transpose()), impl_->chunk_tensor(obs.transpose(), row), n_samples, gen, spaces)) {
+    const torch::Tensor l = rows.reshape({n_samples / T, T}).mean(0).contiguous();
+    out.emplace_back(l.data_ptr<float>(), l.data_ptr<float>() + T);
+  }
+  return out;
 }
 
 float DiffusionPolicy::expected_loss(const Vec& obs, const Mat& chunk, uint64_t seed, int n_samples) const {

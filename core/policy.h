@@ -117,6 +117,10 @@ class DiffusionPolicy {
   /// rows of fresh noise (n_samples a multiple of T_d); their mean is expected_loss() with the same
   /// seed. For asking where along t two kinds of states separate.
   std::vector<float> loss_by_timestep(const Vec& obs, const Mat& chunk, uint64_t seed, int n_samples = kDefaultLossSamples) const;
+  /// The same in each of `spaces`, from one pass of the network: element i equals loss_by_timestep()
+  /// with the score space set to spaces[i] and the same seed.
+  std::vector<std::vector<float>> loss_by_timestep(const Vec& obs, const Mat& chunk, uint64_t seed, int n_samples,
+                                                   const std::vector<ScoreSpace>& spaces) const;
   /// Sampling plus expected loss of the sampled chunk: what the robot does at every decision.
   Decision decide(const Vec& obs, uint64_t seed, int n_samples = kDefaultLossSamples) const;
 

@@ -117,6 +117,16 @@ TEST_F(BimodalPolicy, LossByTimestepAveragesToTheExpectedLossAndConvertsBetweenS
     EXPECT_NEAR(eps[i] / v[i] + x0[i] / v[i], 1.0, 1e-3) << "t " << t;
     if (t > 0) EXPECT_LT(eps[i] / v[i], eps[i - 1] / v[i - 1]) << "alpha_bar falls with t";
   }
+  // every space from one pass: the same numbers as one space at a time
+  const std::vector<std::vector<float>> all =
+      policy_->loss_by_timestep(obs, chunk, 7, 8 * T, {ScoreSpace::kEpsilon, ScoreSpace::kSample, ScoreSpace::kTarget});
+  ASSERT_EQ(all.size(), 3u);
+  for (int t = 0; t < T; ++t) {
+    const size_t i = static_cast<size_t>(t);
+    EXPECT_FLOAT_EQ(all[0][i], eps[i]) << "t " << t;
+    EXPECT_FLOAT_EQ(all[1][i], x0[i]) << "t " << t;
+    EXPECT_FLOAT_EQ(all[2][i], v[i]) << "t " << t;
+  }
   EXPECT_THROW(policy_->loss_by_timestep(obs, chunk, 7, T + 1), Error);
 }
 

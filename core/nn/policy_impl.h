@@ -46,6 +46,9 @@ struct DiffusionPolicy::Impl {
   /// The same rows' losses one by one: (B, n_samples), row i at timestep i mod T_d.
   torch::Tensor row_losses(const torch::Tensor& obs, const torch::Tensor& chunks, int n_samples,
                            torch::Generator& gen) const;
+  /// The same rows scored in each of `spaces` from one pass of the network (the same noise).
+  std::vector<torch::Tensor> row_losses(const torch::Tensor& obs, const torch::Tensor& chunks, int n_samples,
+                                        torch::Generator& gen, const std::vector<ScoreSpace>& spaces) const;
   /// Reverse diffusion from noise for normalised obs (B, obs_dim) -> normalised chunks (B, T_p, A).
   /// The conditioning of every (row, timestep) is computed in one pass before the denoising loop.
   torch::Tensor sample(const torch::Tensor& obs, torch::Generator& gen) const;
