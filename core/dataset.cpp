@@ -285,6 +285,19 @@ H5 create_file(const std::string& tmp, const std::string& env_args, const std::s
   return file;
 }
 
+// " (the disk holding it is full: N bytes free)" when the file's disk has less room than another copy
+// of it needs, else "": a write that fails for want of space names the cause.
+std::string disk_full_hint(const std::string& path) {
+  std::error_code ec;
+  const fs::path dir = fs::absolute(path, ec).parent_path();
+  const fs::space_info space = fs::space(dir, ec);
+  if (ec) return "";
+  const uintmax_t size = fs::exists(path, ec) ? fs::file_size(path, ec) : 0;
+  if (space.available >= size + (1u << 20)) return "";
+  return " (the disk holding it is full: " + std::to_string(space.available) + " bytes free, the file is " + std::to_string(size) +
+         " bytes and appending writes a copy of it; the file still holds every earlier episode)";
+}
+
 // Moves a finished temporary file over `path`, durably.
 void commit_file(const std::string& tmp, const std::string& path) {
   fsync_path(tmp);
@@ -315,7 +328,10 @@ void DatasetWriter::append(const RecordedEpisode& ep) {
     commit_file(tmp, path_);
   } catch (const fs::filesystem_error& e) {
     fs::remove(tmp, ec);
-    throw Error(path_ + ": could not write the episode: " + e.code().message());
+    throw Error(path_ + ": could not write the episode: " + e.code().message() + disk_full_hint(path_));
+  } catch (const Error& e) {
+    fs::remove(tmp, ec);
+    throw Error(std::string(e.what()) + disk_full_hint(path_));
   } catch (...) {
     fs::remove(tmp, ec);
     throw;
@@ -345,7 +361,10 @@ void write_dataset(const std::string& path, const std::string& env_args, const s
     commit_file(tmp, path);
   } catch (const fs::filesystem_error& e) {
     fs::remove(tmp, ec);
-    throw Error(path + ": could not write the data set: " + e.code().message());
+    throw Error(path + ": could not write the data set: " + e.code().message() + disk_full_hint(path));
+  } catch (const Error& e) {
+    fs::remove(tmp, ec);
+    throw Error(std::string(e.what()) + disk_full_hint(path));
   } catch (...) {
     fs::remove(tmp, ec);
     throw;
