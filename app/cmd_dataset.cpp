@@ -44,7 +44,7 @@ Command add_dataset(CLI::App& app) {
         for (int j = 0; j < eps[0].obs.cols(); ++j) csv << ",obs_" << j;
         for (int j = 0; j < eps[0].actions.cols(); ++j) csv << ",action_" << j;
       }
-      csv << ",reward,done,intervention\n";
+      csv << ",reward,done,intervention,actor\n";
       for (size_t e = 0; e < eps.size(); ++e) {
         const auto& ep = eps[e];
         for (int t = 0; t < ep.steps(); ++t) {
@@ -52,7 +52,8 @@ Command add_dataset(CLI::App& app) {
           for (int j = 0; j < ep.obs.cols(); ++j) csv << ',' << ep.obs(t, j);
           for (int j = 0; j < ep.actions.cols(); ++j) csv << ',' << ep.actions(t, j);
           csv << ',' << ep.rewards[static_cast<size_t>(t)] << ',' << int(ep.dones[static_cast<size_t>(t)]) << ','
-              << (ep.intervention.empty() ? 0 : int(ep.intervention[static_cast<size_t>(t)])) << '\n';
+              << (ep.intervention.empty() ? 0 : int(ep.intervention[static_cast<size_t>(t)])) << ','
+              << (ep.actor.empty() ? "" : kActorLabels[ep.actor[static_cast<size_t>(t)]]) << '\n';
         }
       }
       csv.flush();

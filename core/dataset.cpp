@@ -204,8 +204,10 @@ void check_episode(const RecordedEpisode& ep, const std::string& path) {
   if (T == 0) throw Error(path + ": refusing to write an empty episode");
   if (static_cast<size_t>(ep.actions.rows()) != T) throw Error(path + ": episode obs and actions differ in length");
   if ((!ep.rewards.empty() && ep.rewards.size() != T) || (!ep.dones.empty() && ep.dones.size() != T) ||
-      (!ep.intervention.empty() && ep.intervention.size() != T))
-    throw Error(path + ": episode rewards/dones/intervention differ in length from obs");
+      (!ep.intervention.empty() && ep.intervention.size() != T) || (!ep.actor.empty() && ep.actor.size() != T))
+    throw Error(path + ": episode rewards/dones/intervention/actor differ in length from obs");
+  for (uint8_t a : ep.actor)
+    if (a >= std::size(kActorLabels)) throw Error(path + ": episode has an actor code " + std::to_string(a) + " outside kActorLabels");
   if (!ep.obs.allFinite() || !ep.actions.allFinite())
     throw Error(path + ": episode contains NaN or infinite observations or actions; not written");
 }
@@ -240,6 +242,13 @@ void write_demo(hid_t data, int index, const RecordedEpisode& ep, const std::str
   write_vector(demo, "rewards", rewards, H5T_IEEE_F32LE, H5T_NATIVE_FLOAT, path);
   write_vector(demo, "dones", dones, H5T_STD_U8LE, H5T_NATIVE_UINT8, path);
   write_vector(demo, "intervention", flags, H5T_STD_U8LE, H5T_NATIVE_UINT8, path);
+  if (!ep.actor.empty()) {
+    write_vector(demo, "actor", ep.actor, H5T_STD_U8LE, H5T_NATIVE_UINT8, path);
+    std::string labels;
+    for (const char* l : kActorLabels) labels += (labels.empty() ? "" : ",") + std::string(l);
+    H5 actor(H5Dopen2(demo, "actor", H5P_DEFAULT), H5Dclose);
+    write_attr_string(actor, "labels", labels, path);
+  }
   write_attr_int(demo, "num_samples", static_cast<int64_t>(T), path);
   write_attr_int(demo, "success", ep.success ? 1 : 0, path);
   write_attr_string(demo, "source", ep.source, path);
@@ -399,6 +408,9 @@ std::vector<RecordedEpisode> read_dataset(const std::string& path, DatasetInfo* 
     ep.rewards = read_vector<float>(demo, "rewards", H5T_NATIVE_FLOAT, T, where, true);
     ep.dones = read_vector<uint8_t>(demo, "dones", H5T_NATIVE_UINT8, T, where, true);
     ep.intervention = read_vector<uint8_t>(demo, "intervention", H5T_NATIVE_UINT8, T, where, false);
+    ep.actor = read_vector<uint8_t>(demo, "actor", H5T_NATIVE_UINT8, T, where, false);
+    for (uint8_t a : ep.actor)
+      if (a >= std::size(kActorLabels)) throw Error(where + ": dataset 'actor' holds " + std::to_string(a) + ", not a known actor");
     ep.success = H5Aexists(demo, "success") > 0 && read_attr_int(demo, "success", where) != 0;
     if (H5Aexists(demo, "source") > 0) ep.source = read_attr_string(demo, "source", where);
     in.total += static_cast<int64_t>(T);

@@ -12,6 +12,8 @@
 //   /data/demo_<i>/rewards           (T) float32
 //   /data/demo_<i>/dones             (T) uint8
 //   /data/demo_<i>/intervention      (T) uint8: 1 where the expert (human or scripted) acted
+//   /data/demo_<i>/actor             (T) uint8, written by DAgger sessions: who acted at each step, an
+//                                    index into its attribute `labels` (kActorLabels, comma-separated)
 //   /mask/train, /mask/valid         robomimic's filter keys: demo names as byte strings; every
 //                                    tenth demo (demo_9, demo_19, ...) is for validation
 //
@@ -29,6 +31,9 @@
 
 namespace dd {
 
+/// Who acts at a step, as /data/demo_<i>/actor records it (the order of dd::Control in core/session.h).
+inline constexpr const char* kActorLabels[] = {"robot", "expert_query", "expert_timeout", "expert_demo", "operator"};
+
 /// One recorded episode.
 struct RecordedEpisode {
   Mat obs;                            // T x obs_dim
@@ -36,6 +41,7 @@ struct RecordedEpisode {
   std::vector<float> rewards;         // T (empty: zeros)
   std::vector<uint8_t> dones;         // T (empty: 1 on the last step)
   std::vector<uint8_t> intervention;  // T (empty: zeros)
+  std::vector<uint8_t> actor;         // T (empty: not recorded): index into kActorLabels
   bool success = false;
   std::string source = "expert";      // expert | intervention | robot
 

@@ -127,9 +127,15 @@ bool DaggerSession::tick() {
   obs_.push_back(obs);
   actions_.push_back(action);
   flags_.push_back(robot ? 0 : 1);
+  actors_.push_back(static_cast<uint8_t>(control_));
   if (env_.step(action).done) end_episode();
   return !done_;
 }
+
+// The data set's actor codes are the Control values, in kActorLabels' order.
+static_assert(static_cast<int>(Control::kRobot) == 0 && static_cast<int>(Control::kExpertQuery) == 1 &&
+              static_cast<int>(Control::kExpertTimeout) == 2 && static_cast<int>(Control::kExpertDemo) == 3 &&
+              static_cast<int>(Control::kOperator) == 4 && std::size(kActorLabels) == 5);
 
 void DaggerSession::hand_over(Control to) {
   control_ = to;
@@ -194,6 +200,7 @@ void DaggerSession::start_episode() {
   obs_.clear();
   actions_.clear();
   flags_.clear();
+  actors_.clear();
   const int demos_wanted = method_.gated() ? config_.initial_demos : config_.final_demos;
   control_ = expert_demos_ < demos_wanted ? Control::kExpertDemo : Control::kRobot;
   expert_acted_ = control_ == Control::kExpertDemo;
@@ -207,6 +214,7 @@ void DaggerSession::end_episode() {
   rec.obs = stack_rows(obs_, env_.obs_dim());
   rec.actions = stack_rows(actions_, env_.action_dim());
   rec.intervention = flags_;
+  rec.actor = actors_;
   rec.success = env_.success();
   rec.rewards.assign(static_cast<size_t>(T), 0.f);
   if (rec.success && T > 0) rec.rewards.back() = 1.f;
@@ -223,6 +231,7 @@ void DaggerSession::end_episode() {
     RecordedEpisode part;
     part.obs = rec.obs.topRows(robot_steps);
     part.actions = rec.actions.topRows(robot_steps);
+    part.actor.assign(static_cast<size_t>(robot_steps), static_cast<uint8_t>(Control::kRobot));
     part.success = false;
     part.source = "robot";
     robot_data_.push_back(std::move(part));

@@ -180,6 +180,7 @@ class DaggerSession {
   double inference_s_ = 0;
   std::vector<Vec> obs_, actions_;
   std::vector<uint8_t> flags_;
+  std::vector<uint8_t> actors_;  // who acted at each step (a Control, as the data set's actor codes)
   std::vector<Episode> expert_data_;
   std::vector<RecordedEpisode> robot_data_;
   std::vector<UpdateReport> reports_;

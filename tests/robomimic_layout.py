@@ -37,6 +37,10 @@ def main(path, episodes):
                 next_obs = demo["next_obs"][k][()]
                 assert obs.shape == next_obs.shape and obs.shape[0] == n, (name, k, obs.shape, next_obs.shape)
                 assert np.array_equal(next_obs[:-1], obs[1:]), f"{name}: next_obs/{k} is not obs shifted by one step"
+            if "actor" in demo:  # written by DAgger sessions: who acted, an index into its labels
+                labels = demo["actor"].attrs["labels"]
+                labels = (labels.decode("utf-8") if isinstance(labels, bytes) else labels).split(",")
+                assert demo["actor"].shape[0] == n and int(demo["actor"][()].max()) < len(labels), (name, labels)
             for field in ("actions", "rewards", "dones", "intervention"):
                 assert demo[field].shape[0] == n, (name, field, demo[field].shape)
             assert demo["dones"][-1] == 1

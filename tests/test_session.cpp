@@ -234,6 +234,38 @@ TEST(Session, UpdatesAfterEveryNdInterventionsAndStopsAtNf) {
   std::filesystem::remove(path);
 }
 
+// Every recorded step says who acted: the expert's demonstrations, then the robot until its query,
+// then the scripted expert answering it; the label agrees with the intervention flag.
+TEST(Session, RecordsWhoActedAtEveryStep) {
+  LineEnv env;
+  ForwardExpert expert;
+  ScriptedMethod method({false, true});  // the robot's second decision violates (K = 1)
+  DaggerConfig c = small_config();
+  c.initial_demos = 1;
+  c.final_demos = 2;
+  c.patience = 1;
+  const std::string path = (std::filesystem::temp_directory_path() / "dd_session_actor.hdf5").string();
+  std::filesystem::remove(path);
+  DatasetWriter writer(path, "{}");
+  DaggerSession s(env, expert, method, c, no_training(), &writer);
+  run_to_end(s);
+  const auto eps = read_dataset(path);
+  ASSERT_EQ(eps.size(), 2u);
+  for (uint8_t a : eps[0].actor) EXPECT_STREQ(kActorLabels[a], "expert_demo");
+  const RecordedEpisode& corrected = eps[1];
+  ASSERT_EQ(corrected.actor.size(), static_cast<size_t>(corrected.steps()));
+  EXPECT_STREQ(kActorLabels[corrected.actor.front()], "robot");
+  EXPECT_STREQ(kActorLabels[corrected.actor.back()], "expert_query");
+  size_t robot_steps = 0;
+  for (size_t t = 0; t < corrected.actor.size(); ++t) {
+    EXPECT_EQ(corrected.intervention[t], corrected.actor[t] == 0 ? 0 : 1) << "step " << t;
+    robot_steps += corrected.actor[t] == 0;
+    if (t > 0) EXPECT_GE(corrected.actor[t], corrected.actor[t - 1]) << "the robot acts first, then the expert";
+  }
+  EXPECT_GT(robot_steps, 0u);
+  std::filesystem::remove(path);
+}
+
 TEST(Session, EventsComeInOrder) {
   LineEnv env;
   ForwardExpert expert;
