@@ -10,6 +10,7 @@
 #include <map>
 #include <numeric>
 #include <random>
+#include <sstream>
 
 #include <nlohmann/json.hpp>
 
@@ -338,11 +339,11 @@ Demo2dResult run_demo2d(const Demo2dOptions& o) {
     for (const auto& [group, obs] : groups) {
       const std::string steps = group == "id_mm" ? "0" : group.rfind("along_", 0) == 0 ? group.substr(6) : "";
       const auto [em, es] = mean_std(values[group + "/ensemble_std"]);
-      along += fmt::format("{},{},ensemble_std,{:.6g},{:.6g},{}\n", group, steps, em, es, obs.rows());
+      along += fmt::format("{},{},ensemble_std,{:.9g},{:.6g},{}\n", group, steps, em, es, obs.rows());
       for (const ScoreSpace space : kSpaces) {
         if (space == ScoreSpace::kTarget) continue;
         const auto [lm, ls] = mean_std(scores_of(to_string(space) + "/" + group));
-        along += fmt::format("{},{},loss_{},{:.6g},{:.6g},{}\n", group, steps, to_string(space), lm, ls, obs.rows());
+        along += fmt::format("{},{},loss_{},{:.9g},{:.6g},{}\n", group, steps, to_string(space), lm, ls, obs.rows());
       }
     }
     const std::string along_path = o.out + "/fig2_along_paths.csv";
@@ -587,6 +588,26 @@ Demo2dResult run_demo2d(const Demo2dOptions& o) {
   return result;
 }
 
+Demo2dResult read_demo2d_means(const std::string& path) {
+  Demo2dResult r;
+  std::istringstream rows(read_text(path));
+  std::string line;
+  std::getline(rows, line);
+  if (line != "group,steps_along,measure,mean,std,n") throw Error(path + ": not a fig2_along_paths.csv (its header is '" + line + "')");
+  for (int row = 2; std::getline(rows, line); ++row) {
+    std::vector<std::string> f;
+    std::istringstream fields(line);
+    for (std::string x; std::getline(fields, x, ',');) f.push_back(x);
+    try {
+      if (f.size() != 6) throw std::invalid_argument("6 fields expected");
+      r.means[f[2] + "/" + f[0]] = std::stod(f[3]);
+    } catch (const std::exception& e) {
+      throw Error(fmt::format("{} line {}: malformed row '{}' ({})", path, row, line, e.what()));
+    }
+  }
+  return r;
+}
+
 std::vector<Demo2dResult> run_demo2d_seeds(const Demo2dOptions& o) {
   if (o.seeds <= 1) return {run_demo2d(o)};
   std::vector<Demo2dResult> runs;
@@ -595,9 +616,15 @@ std::vector<Demo2dResult> run_demo2d_seeds(const Demo2dOptions& o) {
     Demo2dOptions one = o;
     one.seed = o.seed + static_cast<uint64_t>(i);
     one.out = o.out + "/seed_" + std::to_string(one.seed);
+    seeds.push_back(one.seed);
+    // a seed finished by an earlier run (its summary.md is written last) is read back, not run again
+    if (fs::exists(one.out + "/summary.md") && fs::exists(one.out + "/fig2_along_paths.csv")) {
+      runs.push_back(read_demo2d_means(one.out + "/fig2_along_paths.csv"));
+      fmt::print(stderr, "=== seed {} ({} of {}): finished earlier, read from {}\n", one.seed, i + 1, o.seeds, one.out);
+      continue;
+    }
     fmt::print(stderr, "=== seed {} ({} of {}) into {}\n", one.seed, i + 1, o.seeds, one.out);
     runs.push_back(run_demo2d(one));
-    seeds.push_back(one.seed);
   }
   // Per seed and score: the claim's two ratios and whether it holds there.
   auto ratio = [](const Demo2dResult& r, const std::string& num, const std::string& den) {

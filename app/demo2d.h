@@ -64,7 +64,13 @@ Demo2dResult run_demo2d(const Demo2dOptions& options);
 
 /// With options.seeds == 1, run_demo2d. With more, runs each seed into out/seed_<s> and writes, in
 /// out, summary.md and fig2_seeds.csv: each score's ratios per seed, their mean and spread, and in how
-/// many seeds the paper's claim holds. Returns each seed's result.
+/// many seeds the paper's claim holds. Returns each seed's result. A seed whose folder holds a finished
+/// run (summary.md) is read back from its fig2_along_paths.csv instead of run again, so a stopped run
+/// continues where it stopped.
 std::vector<Demo2dResult> run_demo2d_seeds(const Demo2dOptions& options);
+
+/// The means a finished seed's fig2_along_paths.csv holds (every group's ensemble_std and loss_<space>
+/// but the target space's), as Demo2dResult::means; an Error names the file and line of a malformed row.
+Demo2dResult read_demo2d_means(const std::string& path);
 
 }  // namespace dd::app

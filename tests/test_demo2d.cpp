@@ -9,6 +9,7 @@
 #include <sstream>
 
 #include "app/demo2d.h"
+#include "core/text_file.h"
 #include "ui/image_io.h"
 
 namespace dd::app {
@@ -48,6 +49,15 @@ TEST(Demo2d, SeedsWriteEveryFileAndASummaryOverThem) {
       EXPECT_GT(r.means.count(std::string(measure) + "/" + group), 0u) << measure << "/" << group;
   // the same states scored differently per seed: the two runs are not copies of each other
   EXPECT_NE(results[0].means.at("loss_target/ood"), results[1].means.at("loss_target/ood"));
+  {  // run again: both seeds are read back, not rerun, and the summary over them is the same
+    const std::string summary = read_text(base.out + "/summary.md");
+    fs::remove(base.out + "/seed_1/loss_field.png");  // a rerun would write it again
+    const std::vector<Demo2dResult> again = run_demo2d_seeds(base);
+    EXPECT_FALSE(fs::exists(base.out + "/seed_1/loss_field.png"));
+    EXPECT_EQ(read_text(base.out + "/summary.md"), summary);
+    EXPECT_NEAR(again[1].means.at("loss_epsilon/along_4"), results[1].means.at("loss_epsilon/along_4"),
+                1e-5 * results[1].means.at("loss_epsilon/along_4"));
+  }
 
   for (const char* f : {"fig2_regions.csv", "fig2_regions.png", "loss_field.png", "summary.md", "fig2_loss_by_timestep.csv",
                         "fig2_loss_by_timestep.png", "fig2_along_paths.csv"})
