@@ -399,7 +399,6 @@ Demo2dResult run_demo2d(const Demo2dOptions& o) {
   {  // the loss by timestep: CSV and one panel per space
     std::string t_csv = "space,region,t,mean_loss\n";
     std::vector<ui::Image> panels;
-    const ui::Rgb region_colors[3] = {{80, 160, 90}, {235, 120, 50}, {200, 60, 60}};
     for (const ScoreSpace space : kSpaces) {
       if (space == ScoreSpace::kTarget) continue;  // the same numbers as the training target's own space
       ui::LinePanel p;
@@ -413,7 +412,7 @@ Demo2dResult run_demo2d(const Demo2dOptions& o) {
         const std::string key = to_string(space) + "/" + kRegions[k];
         ui::LineSeries line;
         line.name = kRegions[k];
-        line.color = region_colors[k];
+        line.color = kRegionColors[k];  // the bar plot's colours
         for (int t = 0; t < T_d; ++t) {
           line.x.push_back(t);
           line.y.push_back(mean_over_probes(key, t));

@@ -127,7 +127,7 @@ bool DaggerSession::tick() {
   obs_.push_back(obs);
   actions_.push_back(action);
   flags_.push_back(robot ? 0 : 1);
-  actors_.push_back(static_cast<uint8_t>(control_));
+  actors_.push_back(static_cast<uint8_t>(operator_answering_ && control_ == Control::kExpertQuery ? Control::kOperator : control_));
   if (env_.step(action).done) end_episode();
   return !done_;
 }
@@ -176,9 +176,16 @@ bool DaggerSession::take_over() {
   return true;
 }
 
+bool DaggerSession::operator_answers_query() {
+  if (!in_episode_ || control_ != Control::kExpertQuery) return false;
+  operator_answering_ = true;
+  return true;
+}
+
 bool DaggerSession::hand_back() {
   if (!in_episode_ || (control_ != Control::kExpertQuery && control_ != Control::kOperator)) return false;
   control_ = Control::kRobot;
+  operator_answering_ = false;
   gate_.reset();
   chunk_.resize(0, 0);
   chunk_pos_ = 0;
@@ -201,6 +208,7 @@ void DaggerSession::start_episode() {
   actions_.clear();
   flags_.clear();
   actors_.clear();
+  operator_answering_ = false;
   const int demos_wanted = method_.gated() ? config_.initial_demos : config_.final_demos;
   control_ = expert_demos_ < demos_wanted ? Control::kExpertDemo : Control::kRobot;
   expert_acted_ = control_ == Control::kExpertDemo;

@@ -107,6 +107,10 @@ class DaggerSession {
   /// afresh and the robot plans a new chunk. False unless an expert answering a query or the operator
   /// is in control (a time-out or a demonstration cannot be handed back).
   bool hand_back();
+  /// The operator, not the scripted expert, answers the query in progress: its steps are recorded
+  /// with the actor label "operator" (the console routes the actions; control stays kExpertQuery).
+  /// False unless a query is being answered.
+  bool operator_answers_query();
   /// Starts the next episode now if one is due (no update pending, not done); tick() would start it
   /// itself. Returns whether an episode is in progress. Lets a caller see the first decision coming.
   bool prepare();
@@ -181,6 +185,7 @@ class DaggerSession {
   std::vector<Vec> obs_, actions_;
   std::vector<uint8_t> flags_;
   std::vector<uint8_t> actors_;  // who acted at each step (a Control, as the data set's actor codes)
+  bool operator_answering_ = false;  // the query in progress is answered by the operator
   std::vector<Episode> expert_data_;
   std::vector<RecordedEpisode> robot_data_;
   std::vector<UpdateReport> reports_;

@@ -264,6 +264,25 @@ TEST(Session, RecordsWhoActedAtEveryStep) {
   }
   EXPECT_GT(robot_steps, 0u);
   std::filesystem::remove(path);
+
+  // The operator answering the query instead of the script: those steps are the operator's.
+  LineEnv env2;
+  ForwardExpert expert2;
+  ScriptedMethod method2({false, true});
+  DatasetWriter writer2(path, "{}");
+  DaggerSession s2(env2, expert2, method2, c, no_training(), &writer2);
+  EXPECT_FALSE(s2.operator_answers_query());  // no query yet
+  bool answered = false;
+  s2.add_observer([&](const SessionEvent& e) {
+    if (e.kind == EventKind::kTakeover && e.control == Control::kExpertQuery) answered = s2.operator_answers_query();
+  });
+  run_to_end(s2);
+  EXPECT_TRUE(answered);
+  const auto eps2 = read_dataset(path);
+  ASSERT_EQ(eps2.size(), 2u);
+  EXPECT_STREQ(kActorLabels[eps2[1].actor.front()], "robot");
+  EXPECT_STREQ(kActorLabels[eps2[1].actor.back()], "operator");
+  std::filesystem::remove(path);
 }
 
 TEST(Session, EventsComeInOrder) {

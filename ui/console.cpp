@@ -556,6 +556,7 @@ void answer_as_operator(Console::State& s) {
   s.awaiting = false;
   s.takeover_steps = 0;
   s.operator_countdown = -1;
+  s.session->operator_answers_query();  // the data set labels these steps the operator's
   s.log->note("operator_answers", "episode " + std::to_string(s.session->episode()));
 }
 
