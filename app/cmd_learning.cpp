@@ -56,6 +56,7 @@ Command add_eval(CLI::App& app) {
                   "(1: one after another in this process, with --threads)")
       ->capture_default_str()
       ->check(CLI::Range(1, 64));
+  cmd->add_flag("--only-rq1", o->eval.only_rq1, "run only the RQ1 cells (the query rules on the shared policies) and print them; no report");
   cmd->add_option("--cell", o->eval.cell, "run only this cell, METHOD:SEED:rq1|rq2 (what --jobs starts)")->group("");
   return [o] {
     ExperimentConfig c = resolve_config(o->task, o->config);

@@ -894,6 +894,27 @@ void run_eval(const ExperimentConfig& config, const EvalOptions& o) {
     return;
   }
 
+  // --only-rq1: the query rules' RQ1 cells alone (no DAgger runs), then their numbers; no report.
+  if (o.only_rq1) {
+    std::vector<EvalCell> todo;
+    for (const EvalCell& cell : eval_cells(o.methods, o.seeds))
+      if (cell.rq1 && !fs::exists(cell_file(cell.method, cell.seed, true))) todo.push_back(cell);
+    if (o.jobs > 1) {
+      run_cells_in_processes(todo, o.jobs, o.out + "/logs");
+    } else {
+      for (const EvalCell& cell : todo) run_rq1_cell(cell.method, cell.seed);
+    }
+    for (int s = 0; s < o.seeds; ++s)
+      for (const std::string& name : o.methods) {
+        if (name == "bc") continue;
+        const nlohmann::json j = nlohmann::json::parse(read_text(cell_file(name, s, true)));
+        fmt::print("[seed {}] RQ1 {:8} TP {} FP {} TN {} FN {} (policy success {:.2f})\n", s, name, j.at("tp").get<int>(),
+                   j.at("fp").get<int>(), j.at("tn").get<int>(), j.at("fn").get<int>(), j.at("success").get<double>());
+      }
+    fmt::print("RQ1 cells in {}/cells; run without --only-rq1 for RQ2, RQ3 and the report\n", o.out);
+    return;
+  }
+
   // --jobs N: the unfinished cells, the longest first, N at a time, each in a process of its own.
   std::set<std::string> ran_here;  // cells finished by this run's child processes
   if (o.jobs > 1) {

@@ -29,6 +29,17 @@ for cell in diff_seed0_rq1 diff_seed0_rq2 thrifty_seed0_rq1 thrifty_seed0_rq2 bc
 done
 grep -q "5/5 cells" "$dir/two.log" || { echo "FAIL: no progress line for the last cell"; cat "$dir/two.log"; exit 1; }
 grep -q "cells finished by an earlier" "$dir/two/report.md" && { echo "FAIL: cells run by --jobs counted as an earlier run's"; exit 1; }
+# --only-rq1: the RQ1 cells alone, the same numbers as the full evaluation's, no DAgger run, no report
+"$bin" --threads 2 "${args[@]}" --jobs 2 --only-rq1 --out "$dir/rq1" > "$dir/rq1.log" 2>&1 || { cat "$dir/rq1.log"; exit 1; }
+for cell in diff_seed0_rq1 thrifty_seed0_rq1; do
+  for k in tp fp tn fn; do
+    [[ $(grep "\"$k\"" "$dir/rq1/cells/$cell.json") == $(grep "\"$k\"" "$dir/one/cells/$cell.json") ]] ||
+      { echo "FAIL: --only-rq1 gives another $k for $cell"; exit 1; }
+  done
+done
+ls "$dir/rq1/cells" | grep -q rq2 && { echo "FAIL: --only-rq1 ran a DAgger cell"; exit 1; }
+[[ ! -e $dir/rq1/report.md ]] || { echo "FAIL: --only-rq1 wrote a report"; exit 1; }
+grep -q "RQ1 diff " "$dir/rq1.log" || { echo "FAIL: --only-rq1 did not print the RQ1 numbers"; cat "$dir/rq1.log"; exit 1; }
 # a cell that cannot run: the rerun names it and its log, keeps the others, and fails
 rm "$dir/two/cells/bc_seed0_rq2.json" "$dir/two/cells/diff_seed0_rq2.json"
 rm -rf "$dir/two/runs" && touch "$dir/two/runs"  # no folder can be made for their runs
