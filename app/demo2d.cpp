@@ -36,6 +36,24 @@ const char* kRegionTitles[] = {"ID, UM", "ID, MM", "OOD"};
 const ui::Rgb kRegionColors[] = {{235, 120, 50}, {60, 170, 90}, {60, 110, 210}};
 const int kAlongSteps[] = {2, 4, 8};  // control steps along the paths from the multi-modal probes' starts
 
+// A set of probe states: a region's, or the multi-modal starts some steps along the expert's paths.
+struct ProbeGroup {
+  std::string name;     // id_um, id_mm, ood, along_<steps>
+  int steps_along = -1; // control steps along the paths from the multi-modal starts (id_mm: 0); -1: not on them
+  Mat obs;
+  // the group's row title in the along-the-paths tables
+  std::string title() const { return steps_along == 0 ? "id_mm (at rest on the start)" : std::to_string(steps_along) + " steps along"; }
+};
+
+std::string along_group_name(int steps) { return "along_" + std::to_string(steps); }
+
+// The groups on the paths, in order: the multi-modal start, then each of kAlongSteps.
+std::vector<ProbeGroup> path_groups() {
+  std::vector<ProbeGroup> g{{"id_mm", 0, {}}};
+  for (const int steps : kAlongSteps) g.push_back({along_group_name(steps), steps, {}});
+  return g;
+}
+
 struct Demos {
   std::vector<Episode> episodes;
   std::vector<std::vector<Vec2>> paths;  // agent positions per episode, for drawing
@@ -281,12 +299,12 @@ Demo2dResult run_demo2d(const Demo2dOptions& o) {
     values[std::string(kRegions[k]) + "/ensemble_std"] = ensemble.action_std(probes[static_cast<size_t>(k)], o.seed + 200 + static_cast<uint64_t>(k));
   }
   // The multi-modal probes' starts, a few steps along each path: does the verdict hang on one point?
-  std::vector<std::pair<std::string, Mat>> groups;  // every probe group: the three regions, then along the paths
-  for (int k = 0; k < 3; ++k) groups.emplace_back(kRegions[k], probes[static_cast<size_t>(k)]);
+  std::vector<ProbeGroup> groups;  // every probe group: the three regions, then along the paths
+  for (int k = 0; k < 3; ++k) groups.push_back({kRegions[k], k == 1 ? 0 : -1, probes[static_cast<size_t>(k)]});
   for (const int steps : kAlongSteps) {
-    groups.emplace_back("along_" + std::to_string(steps), along_path_states(steps, o.runs, o.seed));
-    values[groups.back().first + "/ensemble_std"] =
-        ensemble.action_std(groups.back().second, o.seed + 200 + static_cast<uint64_t>(groups.size() - 1));
+    groups.push_back({along_group_name(steps), steps, along_path_states(steps, o.runs, o.seed)});
+    values[groups.back().name + "/ensemble_std"] =
+        ensemble.action_std(groups.back().obs, o.seed + 200 + static_cast<uint64_t>(groups.size() - 1));
   }
   fmt::print(stderr, "[4/5] probed {} states in each of the regions id_um, id_mm, ood and {} steps along the paths\n", o.runs,
              fmt::join(kAlongSteps, ", "));
@@ -304,14 +322,14 @@ Demo2dResult run_demo2d(const Demo2dOptions& o) {
   const int n_t = std::max(1, o.loss_samples / T_d) * T_d;
   std::map<std::string, std::vector<std::vector<float>>> by_t;  // "space/region" -> per probe, T_d losses
   for (size_t k = 0; k < groups.size(); ++k) {
-    const Mat& obs = groups[k].second;
+    const Mat& obs = groups[k].obs;
     const std::vector<Mat> chunks = policy.sample_batch(obs, o.seed + 300 + static_cast<uint64_t>(k));
     const std::vector<ScoreSpace> spaces(std::begin(kSpaces), std::end(kSpaces));
     for (Eigen::Index i = 0; i < obs.rows(); ++i) {
       const std::vector<std::vector<float>> l = policy.loss_by_timestep(
           obs.row(i).transpose(), chunks[static_cast<size_t>(i)], o.seed + 600 + static_cast<uint64_t>(k) * 100000 + static_cast<uint64_t>(i),
           n_t, spaces);
-      for (size_t j = 0; j < spaces.size(); ++j) by_t[to_string(spaces[j]) + "/" + groups[k].first].push_back(l[j]);
+      for (size_t j = 0; j < spaces.size(); ++j) by_t[to_string(spaces[j]) + "/" + groups[k].name].push_back(l[j]);
     }
   }
   // per space and region: the mean over probes at each t, and each probe's mean over t (the score)
@@ -329,21 +347,23 @@ Demo2dResult run_demo2d(const Demo2dOptions& o) {
   for (const char* region : kRegions) values[std::string(region) + "/diffusion_loss"] = scores_of(std::string("target/") + region);
 
   // Every group's mean ensemble std and mean score in each space, for the summaries over seeds.
-  for (const auto& [group, obs] : groups) {
+  for (const ProbeGroup& g : groups) {
+    const std::string& group = g.name;
     result.means["ensemble_std/" + group] = mean_std(values[group + "/ensemble_std"]).first;
     for (const ScoreSpace space : kSpaces)
       result.means["loss_" + to_string(space) + "/" + group] = mean_std(scores_of(to_string(space) + "/" + group)).first;
   }
   {  // along the paths: each group's numbers, the multi-modal start being 0 steps along
     std::string along = "group,steps_along,measure,mean,std,n\n";
-    for (const auto& [group, obs] : groups) {
-      const std::string steps = group == "id_mm" ? "0" : group.rfind("along_", 0) == 0 ? group.substr(6) : "";
+    for (const ProbeGroup& g : groups) {
+      const std::string& group = g.name;
+      const std::string steps = g.steps_along >= 0 ? std::to_string(g.steps_along) : "";
       const auto [em, es] = mean_std(values[group + "/ensemble_std"]);
-      along += fmt::format("{},{},ensemble_std,{:.9g},{:.6g},{}\n", group, steps, em, es, obs.rows());
+      along += fmt::format("{},{},ensemble_std,{:.9g},{:.6g},{}\n", group, steps, em, es, g.obs.rows());
       for (const ScoreSpace space : kSpaces) {
         if (space == ScoreSpace::kTarget) continue;
         const auto [lm, ls] = mean_std(scores_of(to_string(space) + "/" + group));
-        along += fmt::format("{},{},loss_{},{:.9g},{:.6g},{}\n", group, steps, to_string(space), lm, ls, obs.rows());
+        along += fmt::format("{},{},loss_{},{:.9g},{:.6g},{}\n", group, steps, to_string(space), lm, ls, g.obs.rows());
       }
     }
     const std::string along_path = o.out + "/fig2_along_paths.csv";
@@ -555,10 +575,10 @@ Demo2dResult run_demo2d(const Demo2dOptions& o) {
     md += "\n|---|---|";
     for (size_t i = 0; i < shown.size(); ++i) md += "---|";
     md += "\n";
-    for (const auto& [group, obs] : groups) {
-      if (group != "id_mm" && group.rfind("along_", 0) != 0) continue;
-      md += fmt::format("| {} | {:.2f}x |", group == "id_mm" ? "id_mm (at rest on the start)" : group.substr(6) + " steps along",
-                        result.means["ensemble_std/" + group] / result.means["ensemble_std/id_um"]);
+    for (const ProbeGroup& g : groups) {
+      if (g.steps_along < 0) continue;
+      const std::string& group = g.name;
+      md += fmt::format("| {} | {:.2f}x |", g.title(), result.means["ensemble_std/" + group] / result.means["ensemble_std/id_um"]);
       for (const ScoreSpace space : shown) {
         const std::string m = "loss_" + to_string(space) + "/";
         md += fmt::format(" {:.2f}x |", result.means[m + "ood"] / result.means[m + group]);
@@ -669,12 +689,11 @@ std::vector<Demo2dResult> run_demo2d_seeds(const Demo2dOptions& o) {
         "The multi-modal probes' starts, a few control steps along the expert's path: the ensemble's spread over its value "
         "along the paths, and the out-of-distribution loss over the loss there, per space (mean +- std over seeds).\n\n"
         "| probes | ensemble / id_um | ood / here, epsilon | ood / here, v | ood / here, sample |\n|---|---|---|---|---|\n";
-  std::vector<std::string> groups{"id_mm"};
-  for (const int steps : kAlongSteps) groups.push_back("along_" + std::to_string(steps));
-  for (const std::string& g : groups) {
+  for (const ProbeGroup& pg : path_groups()) {
+    const std::string& g = pg.name;
     std::vector<double> ens;
     for (const auto& r : runs) ens.push_back(ratio(r, "ensemble_std/" + g, "ensemble_std/id_um"));
-    md += fmt::format("| {} | {} |", g == "id_mm" ? "id_mm (at rest on the start)" : g.substr(6) + " steps along", mean_sd(ens));
+    md += fmt::format("| {} | {} |", pg.title(), mean_sd(ens));
     for (const std::string space : {"epsilon", "v", "sample"}) {
       std::vector<double> v;
       for (const auto& r : runs) v.push_back(ratio(r, "loss_" + space + "/ood", "loss_" + space + "/" + g));

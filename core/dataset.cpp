@@ -7,6 +7,8 @@
 #include <filesystem>
 #include <cstring>
 #include <functional>
+#include <fmt/format.h>
+#include <fmt/ranges.h>
 
 #include "core/config.h"
 
@@ -244,8 +246,7 @@ void write_demo(hid_t data, int index, const RecordedEpisode& ep, const std::str
   write_vector(demo, "intervention", flags, H5T_STD_U8LE, H5T_NATIVE_UINT8, path);
   if (!ep.actor.empty()) {
     write_vector(demo, "actor", ep.actor, H5T_STD_U8LE, H5T_NATIVE_UINT8, path);
-    std::string labels;
-    for (const char* l : kActorLabels) labels += (labels.empty() ? "" : ",") + std::string(l);
+    static const std::string labels = fmt::format("{}", fmt::join(kActorLabels, ","));
     H5 actor(H5Dopen2(demo, "actor", H5P_DEFAULT), H5Dclose);
     write_attr_string(actor, "labels", labels, path);
   }
@@ -254,26 +255,40 @@ void write_demo(hid_t data, int index, const RecordedEpisode& ep, const std::str
   write_attr_string(demo, "source", ep.source, path);
 }
 
-// A robomimic filter key: /mask/<key>, the demo names as fixed-length byte strings.
+// A robomimic filter key: /mask/<key>, the demo names as fixed-width, null-padded byte strings (numpy
+// reads them back without the padding). The dataset is chunked and resizable, so appending a demo
+// extends it in place instead of deleting and re-creating it (HDF5 does not reclaim deleted space).
+constexpr size_t kMaskNameWidth = 32;  // "demo_" and up to 26 digits
+
 void write_filter_key(hid_t file, const char* key, const std::vector<std::string>& demos, const std::string& path) {
   if (H5Lexists(file, "mask", H5P_DEFAULT) <= 0) {
     H5 group(H5Gcreate2(file, "mask", H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), H5Gclose);
     if (!group.ok()) throw Error(path + ": could not create group /mask");
   }
   H5 mask(H5Gopen2(file, "mask", H5P_DEFAULT), H5Gclose);
-  if (H5Lexists(mask, key, H5P_DEFAULT) > 0) check(H5Ldelete(mask, key, H5P_DEFAULT), path, std::string("replacing /mask/") + key);
-  size_t width = 1;
-  for (const std::string& d : demos) width = std::max(width, d.size());
-  std::string packed(width * demos.size(), '\0');
-  for (size_t i = 0; i < demos.size(); ++i) std::memcpy(&packed[i * width], demos[i].data(), demos[i].size());
+  std::string packed(kMaskNameWidth * demos.size(), '\0');
+  for (size_t i = 0; i < demos.size(); ++i) {
+    if (demos[i].size() > kMaskNameWidth) throw Error(path + ": demo name '" + demos[i] + "' is too long for /mask/" + key);
+    std::memcpy(&packed[i * kMaskNameWidth], demos[i].data(), demos[i].size());
+  }
   H5 type(H5Tcopy(H5T_C_S1), H5Tclose);
-  check(H5Tset_size(type, width), path, "a string type");
+  check(H5Tset_size(type, kMaskNameWidth), path, "a string type");
   check(H5Tset_strpad(type, H5T_STR_NULLPAD), path, "a string type");
   const hsize_t dims[1] = {demos.size()};
-  H5 space(H5Screate_simple(1, dims, nullptr), H5Sclose);
-  H5 ds(H5Dcreate2(mask, key, type, space, H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), H5Dclose);
-  if (!ds.ok()) throw Error(path + ": could not create dataset /mask/" + key);
-  if (!demos.empty()) check(H5Dwrite(ds, type, H5S_ALL, H5S_ALL, H5P_DEFAULT, packed.data()), path, std::string("writing /mask/") + key);
+  const std::string where = std::string("/mask/") + key;
+  const bool exists = H5Lexists(mask, key, H5P_DEFAULT) > 0;
+  H5 ds = [&] {
+    if (exists) return H5(H5Dopen2(mask, key, H5P_DEFAULT), H5Dclose);
+    const hsize_t max_dims[1] = {H5S_UNLIMITED};
+    const hsize_t chunk[1] = {64};
+    H5 space(H5Screate_simple(1, dims, max_dims), H5Sclose);
+    H5 props(H5Pcreate(H5P_DATASET_CREATE), H5Pclose);
+    check(H5Pset_chunk(props, 1, chunk), path, "chunking " + where);
+    return H5(H5Dcreate2(mask, key, type, space, H5P_DEFAULT, props, H5P_DEFAULT), H5Dclose);
+  }();
+  if (!ds.ok()) throw Error(path + ": could not " + (exists ? "open" : "create") + " dataset " + where);
+  if (exists) check(H5Dset_extent(ds, dims), path, "extending " + where);
+  if (!demos.empty()) check(H5Dwrite(ds, type, H5S_ALL, H5S_ALL, H5P_DEFAULT, packed.data()), path, "writing " + where);
 }
 
 // The train/valid split of `episodes` demos: every tenth demo (demo_9, demo_19, ...) is for
@@ -314,63 +329,19 @@ void commit_file(const std::string& tmp, const std::string& path) {
   fsync_path(fs::absolute(path).parent_path().string());
 }
 
-}  // namespace
-
-void DatasetWriter::append(const RecordedEpisode& ep) {
-  check_episode(ep, path_);
-  const auto T = static_cast<int64_t>(ep.steps());
-  const std::string tmp = path_ + ".partial";
-  std::error_code ec;
-  fs::remove(tmp, ec);
-  try {
-    if (fs::exists(path_)) fs::copy_file(path_, tmp, fs::copy_options::overwrite_existing);
-    else create_file(tmp, env_args_, path_);
-    {
-      H5 file(H5Fopen(tmp.c_str(), H5F_ACC_RDWR, H5P_DEFAULT), H5Fclose);
-      if (!file.ok()) throw Error(path_ + ": could not open a copy for appending");
-      H5 data(H5Gopen2(file, "data", H5P_DEFAULT), H5Gclose);
-      write_demo(data, episodes_, ep, path_);
-      write_attr_int(data, "total", total_ + T, path_);
-      write_split(file, episodes_ + 1, path_);
-      check(H5Fflush(file, H5F_SCOPE_GLOBAL), path_, "flush");
-    }
-    commit_file(tmp, path_);
-  } catch (const fs::filesystem_error& e) {
-    fs::remove(tmp, ec);
-    throw Error(path_ + ": could not write the episode: " + e.code().message() + disk_full_hint(path_));
-  } catch (const Error& e) {
-    fs::remove(tmp, ec);
-    throw Error(std::string(e.what()) + disk_full_hint(path_));
-  } catch (...) {
-    fs::remove(tmp, ec);
-    throw;
-  }
-  ++episodes_;
-  total_ += T;
-}
-
-void write_dataset(const std::string& path, const std::string& env_args, const std::vector<RecordedEpisode>& episodes) {
-  for (const RecordedEpisode& ep : episodes) check_episode(ep, path);
+// Writes `path` by way of path.partial: fill(tmp) writes (and closes) the temporary file, which then
+// replaces `path` durably. On any failure the temporary file is removed, `path` is left as it was, and
+// the error names the file, `what` was being written and, when the disk is full, says so.
+void write_via_temporary(const std::string& path, const char* what, const std::function<void(const std::string&)>& fill) {
   const std::string tmp = path + ".partial";
   std::error_code ec;
   fs::remove(tmp, ec);
   try {
-    {
-      H5 file = create_file(tmp, env_args, path);
-      H5 data(H5Gopen2(file, "data", H5P_DEFAULT), H5Gclose);
-      int64_t total = 0;
-      for (size_t i = 0; i < episodes.size(); ++i) {
-        write_demo(data, static_cast<int>(i), episodes[i], path);
-        total += episodes[i].steps();
-      }
-      write_attr_int(data, "total", total, path);
-      write_split(file, static_cast<int>(episodes.size()), path);
-      check(H5Fflush(file, H5F_SCOPE_GLOBAL), path, "flush");
-    }
+    fill(tmp);
     commit_file(tmp, path);
   } catch (const fs::filesystem_error& e) {
     fs::remove(tmp, ec);
-    throw Error(path + ": could not write the data set: " + e.code().message() + disk_full_hint(path));
+    throw Error(path + ": could not write " + what + ": " + e.code().message() + disk_full_hint(path));
   } catch (const Error& e) {
     fs::remove(tmp, ec);
     throw Error(std::string(e.what()) + disk_full_hint(path));
@@ -378,6 +349,42 @@ void write_dataset(const std::string& path, const std::string& env_args, const s
     fs::remove(tmp, ec);
     throw;
   }
+}
+
+}  // namespace
+
+void DatasetWriter::append(const RecordedEpisode& ep) {
+  check_episode(ep, path_);
+  const auto T = static_cast<int64_t>(ep.steps());
+  write_via_temporary(path_, "the episode", [&](const std::string& tmp) {
+    if (fs::exists(path_)) fs::copy_file(path_, tmp, fs::copy_options::overwrite_existing);
+    else create_file(tmp, env_args_, path_);
+    H5 file(H5Fopen(tmp.c_str(), H5F_ACC_RDWR, H5P_DEFAULT), H5Fclose);
+    if (!file.ok()) throw Error(path_ + ": could not open a copy for appending");
+    H5 data(H5Gopen2(file, "data", H5P_DEFAULT), H5Gclose);
+    write_demo(data, episodes_, ep, path_);
+    write_attr_int(data, "total", total_ + T, path_);
+    write_split(file, episodes_ + 1, path_);
+    check(H5Fflush(file, H5F_SCOPE_GLOBAL), path_, "flush");
+  });
+  ++episodes_;
+  total_ += T;
+}
+
+void write_dataset(const std::string& path, const std::string& env_args, const std::vector<RecordedEpisode>& episodes) {
+  for (const RecordedEpisode& ep : episodes) check_episode(ep, path);
+  write_via_temporary(path, "the data set", [&](const std::string& tmp) {
+    H5 file = create_file(tmp, env_args, path);
+    H5 data(H5Gopen2(file, "data", H5P_DEFAULT), H5Gclose);
+    int64_t total = 0;
+    for (size_t i = 0; i < episodes.size(); ++i) {
+      write_demo(data, static_cast<int>(i), episodes[i], path);
+      total += episodes[i].steps();
+    }
+    write_attr_int(data, "total", total, path);
+    write_split(file, static_cast<int>(episodes.size()), path);
+    check(H5Fflush(file, H5F_SCOPE_GLOBAL), path, "flush");
+  });
 }
 
 DatasetInfo dataset_info(const std::string& path) {

@@ -28,16 +28,7 @@ void DaggerConfig::validate() const {
 
 std::string to_string(GateCadence g) { return g == GateCadence::kStep ? "step" : "chunk"; }
 
-std::string to_string(Control c) {
-  switch (c) {
-    case Control::kRobot: return "robot";
-    case Control::kExpertQuery: return "expert_query";
-    case Control::kExpertTimeout: return "expert_timeout";
-    case Control::kExpertDemo: return "expert_demo";
-    case Control::kOperator: return "operator";
-  }
-  return "?";
-}
+std::string to_string(Control c) { return kActorLabels[static_cast<int>(c)]; }
 
 std::string to_string(EventKind k) {
   switch (k) {
