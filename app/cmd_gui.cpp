@@ -9,6 +9,7 @@ Command add_gui(CLI::App& app) {
   auto* cmd = app.add_subcommand("gui", "The operator console: live loss, threshold and query alerts, takeover");
   struct Opts {
     std::string task = "nav2d", method = "diff", config, expert, out, on_query = "pause";
+    std::vector<std::string> policies;
     uint64_t seed = 0;
     bool headless = false, quick = false;
     double speed = 1.0;
@@ -27,6 +28,9 @@ Command add_gui(CLI::App& app) {
   cmd->add_flag("--quick", o->quick, "small training budgets and schedule (a demo or a test, not an experiment)");
   cmd->add_flag("--headless", o->headless, "no window: render through EGL at a fixed time step");
   cmd->add_option("--screenshots", o->run.screenshots, "folder for query.png, takeover.png, update.png (F12 in a window)");
+  cmd->add_option("--policy", o->policies,
+                   "checkpoint(s) the first update adopts instead of training (e.g. from import-policy; one per member for "
+                   "ensemble and thrifty): the initial demonstrations then only set the threshold");
   cmd->add_option("--script", o->run.script, "headless: YAML list of input events, e.g. - {on: query, after: 8, key: T}");
   cmd->add_option("--max-frames", o->run.max_frames, "headless: stop after this many frames (default 20000)");
   cmd->add_option("--width", o->run.width, "window or screenshot width")->capture_default_str();
@@ -38,6 +42,10 @@ Command add_gui(CLI::App& app) {
     if (o->quick) {
       EvalOptions e;
       e.apply_quick(c.config);
+    }
+    if (!o->policies.empty()) {  // the session starts from these policies: their network, not the preset's
+      use_checkpoint_network(c.config, o->policies.front());
+      c.policies = o->policies;
     }
     c.method = o->method;
     c.expert_mode = o->expert;

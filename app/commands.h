@@ -34,5 +34,8 @@ Command add_train(CLI::App& app);
 Command add_curves(CLI::App& app);
 /// `inspect`: print a checkpoint's config, parameter count and normalisers.
 Command add_inspect(CLI::App& app);
+/// `import-policy` / `export-policy`: diffusion_policy state_dicts in and out (core/interop.h).
+Command add_import_policy(CLI::App& app);
+Command add_export_policy(CLI::App& app);
 
 }  // namespace dd::app

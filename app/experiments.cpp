@@ -291,7 +291,18 @@ DaggerRunResult run_dagger(const ExperimentConfig& config, const DaggerRunOption
   return result;
 }
 
-TrainRunResult run_train(const ExperimentConfig& config, const TrainOptions& o) {
+void use_checkpoint_network(ExperimentConfig& config, const std::string& checkpoint) {
+  const PolicyConfig p = DiffusionPolicy::from_checkpoint(checkpoint)->config();
+  if (p.obs_dim != config.policy.obs_dim || p.action_dim != config.policy.action_dim)
+    throw Error(fmt::format("{}: the policy takes {} observation and {} action features per step; task '{}' has {} and {}", checkpoint,
+                            p.obs_dim, p.action_dim, config.task, config.policy.obs_dim, config.policy.action_dim));
+  config.policy = p;
+  config.dagger.action_steps = p.action_steps;
+}
+
+TrainRunResult run_train(const ExperimentConfig& preset_config, const TrainOptions& o) {
+  ExperimentConfig config = preset_config;
+  if (!o.init.empty()) use_checkpoint_network(config, o.init);
   config.validate();
   if (o.out.empty()) throw Error("train: an output folder is required (--out)");
   make_dirs(o.out);

@@ -124,6 +124,11 @@ struct TrainRunResult {
 /// called again with the same config and folder; the folder of another config's stopped run is an Error.
 TrainRunResult run_train(const ExperimentConfig& config, const TrainOptions& options);
 
+/// Makes `config` run the network of `checkpoint` (its PolicyConfig, and its T_a for the session): an
+/// imported policy may differ from the preset in every field but the task's observation and action
+/// sizes, which are checked (an Error names the checkpoint). train --init and gui --policy use it.
+void use_checkpoint_network(ExperimentConfig& config, const std::string& checkpoint);
+
 /// `diffdagger curves DIR`: gathers the `train` runs in DIR's subfolders (summary.json, curve.csv) into
 /// DIR/curves.csv, DIR/success_vs_demos.png (final success against demonstrations, one line per task
 /// and expert) and DIR/success_vs_steps.png (success against training steps, one line per run).

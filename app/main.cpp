@@ -34,6 +34,8 @@ int main(int argc, char** argv) {
   add(dd::app::add_dataset);
   add(dd::app::add_bimodal);
   add(dd::app::add_inspect);
+  add(dd::app::add_import_policy);
+  add(dd::app::add_export_policy);
 
   dd::app::set_command_line(argc, argv);
   CLI11_PARSE(app, argc, argv);

@@ -282,7 +282,8 @@ void DaggerSession::run_update(const ProgressFn& progress) {
       emit(e);
     }
   };
-  const UpdateReport r = method_.update(expert_data_, robot_data_, train_, report_progress);
+  const UpdateReport r = updates_ == 0 && !adopt_.empty() ? method_.adopt(adopt_, expert_data_, robot_data_)
+                                                           : method_.update(expert_data_, robot_data_, train_, report_progress);
   ++updates_;
   demos_at_last_update_ = expert_demos_;
   update_pending_ = false;

@@ -99,6 +99,10 @@ class DaggerSession {
   bool tick();
   /// Runs the pending policy update now (the console calls it from a worker thread).
   void run_update(const ProgressFn& progress = {});
+  /// The first update adopts these checkpoints (Method::adopt: a policy trained elsewhere, e.g. one
+  /// imported from diffusion_policy) instead of training; its threshold is still set on the initial
+  /// demonstrations. Later updates train as usual. Call before the first update.
+  void adopt_at_first_update(std::vector<std::string> checkpoints) { adopt_ = std::move(checkpoints); }
   /// The operator takes over from the robot in the middle of an episode (Control::kOperator). The
   /// steps from here on are recorded as an intervention. False (and nothing happens) unless the robot
   /// is in control.
@@ -165,6 +169,7 @@ class DaggerSession {
   Env& env_;
   Expert& expert_;
   Method& method_;
+  std::vector<std::string> adopt_;  // adopt_at_first_update()
   DaggerConfig config_;
   TrainConfig train_;
   DatasetWriter* writer_;

@@ -301,8 +301,10 @@ Console::Console(const ConsoleOptions& options) : s_(std::make_unique<State>()) 
   s.writer = std::make_unique<DatasetWriter>(dataset, env_args(c.task));
   TrainConfig train = c.train;
   s.session = std::make_unique<DaggerSession>(*s.env, *s.expert, *s.method, c.dagger, train, s.writer.get());
+  s.session->adopt_at_first_update(s.o.policies);
   s.log = std::make_unique<EventLog>(s.o.out + "/session.jsonl");
   s.log->note("console_start", "task " + c.task + ", method " + s.o.method + ", out " + s.o.out);
+  if (!s.o.policies.empty()) s.log->note("console_policy", "first update adopts " + s.o.policies.front());
   s.session->add_observer([&s](const SessionEvent& e) {
     std::lock_guard<std::mutex> lock(s.mu);
     s.queue.push_back(e);

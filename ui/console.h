@@ -22,6 +22,8 @@ struct ConsoleOptions {
   std::string method = "diff";       // diff | ensemble | thrifty | bc
   std::string expert_mode;  // empty: the config's expert
   std::string out;                   // folder: dataset.hdf5, session.jsonl, checkpoints/
+  std::vector<std::string> policies;  // the first update adopts these checkpoints instead of training
+                                      // (one; one per member for ensemble, thrifty); config.policy must be theirs
   bool pause_on_query = true;        // false: the scripted expert answers a query at once
   bool scripted_operator = false;    // the scripted expert plays the operator (headless runs)
   int operator_delay = 12;           // scripted operator: frames between a query and its takeover
