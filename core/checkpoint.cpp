@@ -24,12 +24,7 @@ struct Contents {
 
 // Opens and checks the format tag and config of a checkpoint file.
 void open_checkpoint(const std::string& path, Contents& out) {
-  if (!std::filesystem::exists(path)) throw Error(path + ": no such checkpoint file");
-  try {
-    out.archive.load_from(path);
-  } catch (const c10::Error& e) {
-    throw Error(path + ": not a readable checkpoint (truncated or corrupt): " + first_line(e.what()));
-  }
+  load_archive_checked(out.archive, path, "checkpoint");
   c10::IValue format, version, config;
   if (!out.archive.try_read("format", format) || !format.isString() || format.toStringRef() != kFormat)
     throw Error(path + ": not a diffdagger policy checkpoint (missing field 'format')");

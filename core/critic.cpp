@@ -139,8 +139,8 @@ void RiskCritic::save(const std::string& path) const {
 void RiskCritic::load(const std::string& path) {
   if (!std::filesystem::exists(path)) throw Error(path + ": no such critic file");
   torch::serialize::InputArchive archive, q1, q2;
+  load_archive_checked(archive, path, "critic");
   try {
-    archive.load_from(path);
     c10::IValue format;
     if (!archive.try_read("format", format) || !format.isString() || format.toStringRef() != "diffdagger-critic")
       throw Error(path + ": not a diffdagger critic file (missing field 'format')");

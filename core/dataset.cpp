@@ -11,6 +11,7 @@
 #include <fmt/ranges.h>
 
 #include "core/config.h"
+#include "core/isolate.h"
 
 namespace dd {
 namespace {
@@ -393,7 +394,118 @@ DatasetInfo dataset_info(const std::string& path) {
   return info;
 }
 
+namespace {
+
+// The episodes and info a child process read, as bytes for the pipe (read_in_child) and back.
+class Bytes {
+ public:
+  std::string out;
+  template <typename T>
+  void put(const T& v) { out.append(reinterpret_cast<const char*>(&v), sizeof v); }
+  template <typename T>
+  void put_all(const T* p, size_t n) {
+    put<uint64_t>(n);
+    out.append(reinterpret_cast<const char*>(p), n * sizeof(T));
+  }
+  void put_string(const std::string& s) { put_all(s.data(), s.size()); }
+  void put_mat(const Mat& m) {
+    put<int64_t>(m.rows());
+    put<int64_t>(m.cols());
+    out.append(reinterpret_cast<const char*>(m.data()), static_cast<size_t>(m.size()) * sizeof(float));
+  }
+
+  explicit Bytes(std::string in = {}) : in_(std::move(in)) {}
+  template <typename T>
+  T get() {
+    T v;
+    take(&v, sizeof v);
+    return v;
+  }
+  template <typename T>
+  std::vector<T> get_all() {
+    std::vector<T> v(get<uint64_t>());
+    take(v.data(), v.size() * sizeof(T));
+    return v;
+  }
+  std::string get_string() {
+    const std::vector<char> v = get_all<char>();
+    return std::string(v.begin(), v.end());
+  }
+  Mat get_mat() {
+    const auto rows = get<int64_t>(), cols = get<int64_t>();
+    Mat m(rows, cols);
+    take(m.data(), static_cast<size_t>(m.size()) * sizeof(float));
+    return m;
+  }
+
+ private:
+  void take(void* p, size_t n) {
+    if (n > in_.size() - pos_) throw Error("read_dataset: the reading child process sent a short message");
+    std::memcpy(p, in_.data() + pos_, n);
+    pos_ += n;
+  }
+  std::string in_;
+  size_t pos_ = 0;
+};
+
+std::vector<RecordedEpisode> read_dataset_here(const std::string& path, DatasetInfo* info);
+
+}  // namespace
+
+// libhdf5 1.10 is not memory-safe on corrupt files (tests/fuzz found a heap overflow in
+// H5O__attr_exists): the file is parsed in a child process, which sends the episodes back.
 std::vector<RecordedEpisode> read_dataset(const std::string& path, DatasetInfo* info) {
+  if (!fs::exists(path)) throw Error(path + ": no such data set file");
+  Bytes in(read_in_child(path, "libhdf5", [&] {
+    DatasetInfo i;
+    const std::vector<RecordedEpisode> eps = read_dataset_here(path, &i);
+    Bytes b;
+    b.put<int64_t>(i.total);
+    b.put<int64_t>(i.intervention_steps);
+    b.put<int32_t>(i.successes);
+    b.put<int32_t>(i.obs_dim);
+    b.put<int32_t>(i.action_dim);
+    b.put_string(i.env_args);
+    b.put<uint64_t>(eps.size());
+    for (const RecordedEpisode& e : eps) {
+      b.put_mat(e.obs);
+      b.put_mat(e.actions);
+      b.put_all(e.rewards.data(), e.rewards.size());
+      b.put_all(e.dones.data(), e.dones.size());
+      b.put_all(e.intervention.data(), e.intervention.size());
+      b.put_all(e.actor.data(), e.actor.size());
+      b.put<uint8_t>(e.success);
+      b.put_string(e.source);
+    }
+    return std::move(b.out);
+  }));
+  DatasetInfo i;
+  i.path = path;
+  i.total = in.get<int64_t>();
+  i.intervention_steps = in.get<int64_t>();
+  i.successes = in.get<int32_t>();
+  i.obs_dim = in.get<int32_t>();
+  i.action_dim = in.get<int32_t>();
+  i.env_args = in.get_string();
+  std::vector<RecordedEpisode> eps(in.get<uint64_t>());
+  for (RecordedEpisode& e : eps) {
+    e.obs = in.get_mat();
+    e.actions = in.get_mat();
+    e.rewards = in.get_all<float>();
+    e.dones = in.get_all<uint8_t>();
+    e.intervention = in.get_all<uint8_t>();
+    e.actor = in.get_all<uint8_t>();
+    e.success = in.get<uint8_t>() != 0;
+    e.source = in.get_string();
+  }
+  i.episodes = static_cast<int>(eps.size());
+  if (info) *info = i;
+  return eps;
+}
+
+namespace {
+
+std::vector<RecordedEpisode> read_dataset_here(const std::string& path, DatasetInfo* info) {
   H5 file = open_readonly(path);
   if (H5Lexists(file, "data", H5P_DEFAULT) <= 0) throw Error(path + ": missing group /data (not a robomimic-layout data set)");
   H5 data(H5Gopen2(file, "data", H5P_DEFAULT), H5Gclose);
@@ -434,5 +546,7 @@ std::vector<RecordedEpisode> read_dataset(const std::string& path, DatasetInfo* 
   if (info) *info = in;
   return out;
 }
+
+}  // namespace
 
 }  // namespace dd

@@ -12,6 +12,7 @@
 #include <fmt/ranges.h>
 #include <nlohmann/json.hpp>
 
+#include "core/isolate.h"
 #include "core/nn/archive_io.h"
 #include "core/nn/policy_impl.h"
 #include "core/text_file.h"
@@ -58,26 +59,39 @@ std::string dp_name(const std::string& ours) {
 
 std::string shape_of(const torch::Tensor& t) { return fmt::format("[{}]", fmt::join(t.sizes(), ", ")); }
 
+// The file's dict of tensors. libtorch's in-memory zip reader overflows its buffer on some corrupt
+// files (tests/fuzz), so a child process parses the file, checks it is a dict of named tensors and
+// sends it back re-serialised by pickle_save; only that well-formed copy is parsed here.
 std::map<std::string, torch::Tensor> read_state_dict(const std::string& path) {
+  auto parse = [&path](const std::vector<char>& bytes) {
+    c10::IValue value;
+    try {
+      value = torch::pickle_load(bytes);
+    } catch (const c10::Error& e) {
+      throw Error(path + ": not a state_dict that torch.load reads (truncated, corrupt, or pickled Python objects other "
+                         "than tensors; save `dict(model.state_dict())`): " + first_line(e.what()));
+    }
+    if (!value.isGenericDict()) throw Error(path + ": holds a " + value.tagKind() + ", not a dict of tensors (a state_dict)");
+    std::map<std::string, torch::Tensor> out;
+    for (const auto& entry : value.toGenericDict()) {
+      if (!entry.key().isString()) throw Error(path + ": a key of the state_dict is a " + entry.key().tagKind() + ", not a name");
+      const std::string& key = entry.key().toStringRef();
+      if (!entry.value().isTensor()) throw Error(path + ": '" + key + "' holds a " + entry.value().tagKind() + ", not a tensor");
+      out[key] = entry.value().toTensor();
+    }
+    return out;
+  };
   std::ifstream in(path, std::ios::binary);
   if (!in) throw Error(path + ": cannot open the state_dict file");
   const std::vector<char> bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-  c10::IValue value;
-  try {
-    value = torch::pickle_load(bytes);
-  } catch (const c10::Error& e) {
-    throw Error(path + ": not a state_dict that torch.load writes (truncated, corrupt, or pickled Python objects other "
-                       "than tensors; save `model.state_dict()`): " + first_line(e.what()));
-  }
-  if (!value.isGenericDict()) throw Error(path + ": holds a " + value.tagKind() + ", not a dict of tensors (a state_dict)");
-  std::map<std::string, torch::Tensor> out;
-  for (const auto& entry : value.toGenericDict()) {
-    if (!entry.key().isString()) throw Error(path + ": a key of the state_dict is a " + entry.key().tagKind() + ", not a name");
-    const std::string& key = entry.key().toStringRef();
-    if (!entry.value().isTensor()) throw Error(path + ": '" + key + "' holds a " + entry.value().tagKind() + ", not a tensor");
-    out[key] = entry.value().toTensor();
-  }
-  return out;
+  const std::string clean = read_in_child(path, "libtorch", [&] {
+    at::set_num_threads(1);
+    c10::Dict<std::string, torch::Tensor> dict;
+    for (const auto& [key, value] : parse(bytes)) dict.insert(key, value.contiguous());
+    const std::vector<char> out = torch::pickle_save(c10::IValue(dict));
+    return std::string(out.begin(), out.end());
+  });
+  return parse(std::vector<char>(clean.begin(), clean.end()));
 }
 
 Vec to_vec(const nlohmann::json& j, const std::string& field, const std::string& path) {

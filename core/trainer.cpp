@@ -207,8 +207,8 @@ void Trainer::resume(const std::string& path) {
   if (!std::filesystem::exists(path)) throw Error(path + ": no trainer state to resume from");
   torch::serialize::InputArchive archive, optimizer;
   c10::IValue format, version, step, total;
+  load_archive_checked(archive, path, "trainer state");
   try {
-    archive.load_from(path);
     if (!archive.try_read("format", format) || !format.isString() || format.toStringRef() != kStateFormat)
       throw Error(path + ": not a diffdagger trainer state (field 'format')");
     if (!archive.try_read("version", version) || !version.isInt() || version.toInt() != kStateVersion)

@@ -179,4 +179,19 @@ TEST_F(Dataset, CorruptTruncatedAndMissingFilesGiveClearErrors) {
   EXPECT_EQ(read_dataset(good).size(), 1u);
 }
 
+// A file the fuzzer (tests/fuzz) made libhdf5 overflow its heap on: whether or not libhdf5 crashes
+// on it in this build, reading it ends in an Error naming the file, and this process goes on.
+TEST_F(Dataset, AFileThatCrashedLibhdf5IsAnError) {
+  const std::string path = DD_SOURCE_DIR "/tests/data/fuzz_regressions/hdf5_attr_exists_overflow.hdf5";
+  const std::string m = message_of([&] { read_dataset(path); });
+  EXPECT_NE(m.find(path), std::string::npos) << m;
+  const std::string good = file("good.hdf5");
+  DatasetWriter writer(good, "{}");
+  writer.append(make_episode(0));
+  writer.append(make_episode(1));
+  const auto eps = read_dataset(good);  // and the next file reads as usual, whole
+  ASSERT_EQ(eps.size(), 2u);
+  EXPECT_TRUE(episode_intact(eps[0], 0) && episode_intact(eps[1], 1));
+}
+
 }  // namespace dd

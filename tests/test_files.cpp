@@ -5,7 +5,10 @@
 #include <cmath>
 #include <filesystem>
 
+#include <signal.h>
+
 #include "core/config.h"
+#include "core/isolate.h"
 #include "core/progress.h"
 #include "core/text_file.h"
 
@@ -69,3 +72,39 @@ TEST(ProgressBar, TimeLeftCountsOnlyTheUnitsDoneSinceTheBarStarted) {
 }
 
 }  // namespace dd
+
+// ---- reading in a child process (core/isolate.h) ----
+
+TEST(ReadInChild, ReturnsWhatTheChildRead) {
+  EXPECT_EQ(dd::read_in_child("x.bin", "lib", [] { return std::string("bytes\0with a zero", 17); }), std::string("bytes\0with a zero", 17));
+  const std::string big(3 << 20, 'z');  // more than a pipe holds at once
+  EXPECT_EQ(dd::read_in_child("x.bin", "lib", [&] { return big; }), big);
+}
+
+TEST(ReadInChild, ThrowsTheChildsMessage) {
+  try {
+    dd::read_in_child("x.bin", "lib", []() -> std::string { throw dd::Error("x.bin: field 'y' is wrong"); });
+    FAIL() << "no error";
+  } catch (const dd::Error& e) {
+    EXPECT_STREQ(e.what(), "x.bin: field 'y' is wrong");
+  }
+}
+
+TEST(ReadInChild, ALibraryCrashIsAnErrorNamingTheFile) {
+  const int before = dd::children_crashed();
+  for (const int sig : {SIGSEGV, SIGABRT}) {
+    try {
+      dd::read_in_child("corrupt.h5", "libhdf5", [sig]() -> std::string {
+        ::signal(sig, SIG_DFL);  // (a sanitizer or a test framework may have its own handler)
+        ::raise(sig);
+        return "";
+      });
+      FAIL() << "no error";
+    } catch (const dd::Error& e) {
+      const std::string m = e.what();
+      EXPECT_NE(m.find("corrupt.h5: the file is corrupt: reading it crashed libhdf5"), std::string::npos) << m;
+      EXPECT_NE(m.find("signal " + std::to_string(sig)), std::string::npos) << m;
+    }
+  }
+  EXPECT_EQ(dd::children_crashed(), before + 2);
+}

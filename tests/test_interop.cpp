@@ -194,6 +194,14 @@ TEST_F(Interop, MalformedInputNamesFileAndKey) {
   EXPECT_TRUE(has(message_of(sd_, json_), {json_, "not valid JSON"}));
 }
 
+// A file the fuzzer (tests/fuzz) made libtorch's zip reader overflow its heap on: an Error naming it.
+TEST_F(Interop, AFileThatCrashedLibtorchIsAnError) {
+  const std::string path = DD_SOURCE_DIR "/tests/data/fuzz_regressions/torch_zip_central_directory_overflow.pt";
+  const std::string m = message_of(path, json_);
+  EXPECT_NE(m.find(path), std::string::npos) << m;
+  expect_same_policy(*policy_, *import(sd_, json_));  // and this process goes on
+}
+
 TEST_F(Interop, TaskOfOtherSizesIsRefused) {
   PolicyConfig other = policy_->config();
   other.obs_dim = 5;

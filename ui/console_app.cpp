@@ -18,6 +18,7 @@
 #include "core/config.h"
 #include "ui/headless_gl.h"
 #include "ui/image_io.h"
+#include "ui/script.h"
 
 namespace dd::ui {
 namespace {
@@ -47,76 +48,6 @@ void render_imgui(int width, int height) {
   glClearColor(0.06f, 0.065f, 0.08f, 1.f);
   glClear(GL_COLOR_BUFFER_BIT);
   ImGui_ImplOpenGL3_RenderDrawData(ImGui::GetDrawData());
-}
-
-// ---- the script of input events (headless) ----
-
-int key_code(const std::string& name, const std::string& where) {
-  static const std::map<std::string, int> named = {
-      {"Space", GLFW_KEY_SPACE}, {"Escape", GLFW_KEY_ESCAPE}, {"F1", GLFW_KEY_F1}, {"F12", GLFW_KEY_F12},
-      {"Plus", GLFW_KEY_EQUAL},  {"Minus", GLFW_KEY_MINUS}};
-  if (auto it = named.find(name); it != named.end()) return it->second;
-  if (name.size() == 1 && std::isalpha(static_cast<unsigned char>(name[0])))
-    return GLFW_KEY_A + (std::toupper(static_cast<unsigned char>(name[0])) - 'A');
-  throw Error(where + ": unknown key '" + name + "' (letters, Space, Escape, F1, F12, Plus, Minus)");
-}
-
-Eigen::Vector2d hold_direction(const std::string& name, const std::string& where) {
-  if (name == "Up") return {0, 1};
-  if (name == "Down") return {0, -1};
-  if (name == "Left") return {-1, 0};
-  if (name == "Right") return {1, 0};
-  throw Error(where + ": unknown direction '" + name + "' (Up, Down, Left, Right)");
-}
-
-struct ScriptEvent {
-  int at = -1;          // frame, or -1 when triggered by `on`
-  std::string on;       // query | update | takeover | episode
-  int after = 0;        // frames after the trigger
-  int key = -1;         // a key press
-  Eigen::Vector2d hold{0, 0};
-  int frames = 1;       // how long a hold lasts
-  int start = -1;       // resolved start frame
-};
-
-std::vector<ScriptEvent> load_script(const std::string& path) {
-  if (!fs::exists(path)) throw Error(path + ": no such script file");
-  YAML::Node root;
-  try {
-    root = YAML::LoadFile(path);
-  } catch (const YAML::Exception& e) {
-    throw Error(path + ": malformed YAML: " + e.what());
-  }
-  if (!root.IsSequence()) throw Error(path + ": a script is a list of events, e.g. - {on: query, after: 8, key: T}");
-  std::vector<ScriptEvent> out;
-  for (size_t i = 0; i < root.size(); ++i) {
-    const YAML::Node n = root[i];
-    const std::string where = path + ": event " + std::to_string(i + 1);
-    if (!n.IsMap()) throw Error(where + ": must be a map");
-    ScriptEvent e;
-    try {
-      for (const auto& kv : n) {
-        const std::string k = kv.first.as<std::string>();
-        if (k == "at") e.at = kv.second.as<int>();
-        else if (k == "on") e.on = kv.second.as<std::string>();
-        else if (k == "after") e.after = kv.second.as<int>();
-        else if (k == "key") e.key = key_code(kv.second.as<std::string>(), where);
-        else if (k == "hold") e.hold = hold_direction(kv.second.as<std::string>(), where);
-        else if (k == "frames") e.frames = kv.second.as<int>();
-        else throw Error(where + ": unknown field '" + k + "' (at, on, after, key, hold, frames)");
-      }
-    } catch (const YAML::Exception& ex) {
-      throw Error(where + ": " + ex.what());
-    }
-    if ((e.at < 0) == e.on.empty()) throw Error(where + ": give exactly one of 'at' (a frame) or 'on' (an event)");
-    if (!e.on.empty() && e.on != "query" && e.on != "update" && e.on != "takeover" && e.on != "episode")
-      throw Error(where + ": field 'on' must be query, update, takeover or episode, not '" + e.on + "'");
-    if (e.key < 0 && e.hold.isZero()) throw Error(where + ": give a 'key' or a 'hold'");
-    if (e.frames < 1 || e.after < 0) throw Error(where + ": 'frames' must be >= 1 and 'after' >= 0");
-    e.start = e.at;
-    out.push_back(e);
-  }
-  return out;
 }
 
 }  // namespace

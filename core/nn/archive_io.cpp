@@ -3,10 +3,29 @@
 #include <filesystem>
 
 #include "core/config.h"
+#include "core/isolate.h"
 
 namespace dd {
 
 std::string first_line(const std::string& s) { return s.substr(0, s.find('\n')); }
+
+void load_archive_checked(torch::serialize::InputArchive& archive, const std::string& path, const std::string& what) {
+  if (!std::filesystem::exists(path)) throw Error(path + ": no such " + what + " file");
+  auto load = [&](torch::serialize::InputArchive& a) {
+    try {
+      a.load_from(path);
+    } catch (const c10::Error& e) {
+      throw Error(path + ": not a readable " + what + " (truncated or corrupt): " + first_line(e.what()));
+    }
+  };
+  read_in_child(path, "libtorch", [&] {
+    at::set_num_threads(1);  // the parent's OpenMP pool does not exist in the child
+    torch::serialize::InputArchive a;
+    load(a);
+    return std::string();
+  });
+  load(archive);
+}
 
 void save_archive_atomically(torch::serialize::OutputArchive& archive, const std::string& path, const std::string& what) {
   const std::string tmp = path + ".tmp";

@@ -13,6 +13,11 @@ namespace dd {
 /// The first line of a torch error: the rest is a C++ backtrace nobody wants to read.
 std::string first_line(const std::string& s);
 
+/// archive.load_from(path), after the same load succeeded in a child process (core/isolate.h):
+/// libtorch's zip reader overflows its buffers on some corrupt files. Throws Error "path: no such
+/// <what> file" or "path: not a readable <what> (truncated or corrupt): ...", or names the crash.
+void load_archive_checked(torch::serialize::InputArchive& archive, const std::string& path, const std::string& what);
+
 /// A vector as a 1-D float tensor (a copy) and back: normalisers in archives.
 torch::Tensor vec_tensor(const Vec& v);
 Vec tensor_vec(const torch::Tensor& t);
