@@ -85,7 +85,6 @@ std::map<std::string, torch::Tensor> read_state_dict(const std::string& path) {
   if (!in) throw Error(path + ": cannot open the state_dict file");
   const std::vector<char> bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
   const std::string clean = read_in_child(path, "libtorch", [&] {
-    at::set_num_threads(1);
     c10::Dict<std::string, torch::Tensor> dict;
     for (const auto& [key, value] : parse(bytes)) dict.insert(key, value.contiguous());
     const std::vector<char> out = torch::pickle_save(c10::IValue(dict));

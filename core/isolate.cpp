@@ -10,10 +10,31 @@
 
 #include "core/config.h"
 
+#if defined(__has_feature)
+#if __has_feature(address_sanitizer)
+#include <sanitizer/common_interface_defs.h>
+#define DD_HAVE_SANITIZER_HOOKS 1
+#endif
+#endif
+
+// OpenMP's pool does not survive fork: the child runs on one thread. (Weak: a program without
+// OpenMP has none to set.)
+extern "C" void omp_set_num_threads(int) __attribute__((weak));
+
 namespace dd {
 namespace {
 
 std::atomic<int> g_crashed{0};
+
+// In the child: die plainly on a crash, so that only the parent reports (a fuzzer's or a sanitizer's
+// crash handler would otherwise treat the child's death as the whole program's).
+void child_setup() {
+  for (const int sig : {SIGSEGV, SIGBUS, SIGABRT, SIGILL, SIGFPE}) ::signal(sig, SIG_DFL);
+#ifdef DD_HAVE_SANITIZER_HOOKS
+  __sanitizer_set_death_callback(nullptr);
+#endif
+  if (omp_set_num_threads) omp_set_num_threads(1);
+}
 
 bool write_all(int fd, const char* p, size_t n) {
   while (n > 0) {
@@ -41,6 +62,7 @@ std::string read_in_child(const std::string& path, const std::string& library, c
   }
   if (pid == 0) {  // the child: read, send 'O' + result or 'E' + message, and leave without cleanup
     ::close(fds[0]);
+    child_setup();
     std::string out;
     try {
       out = "O" + read();

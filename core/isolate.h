@@ -14,8 +14,9 @@ namespace dd {
 
 /// Runs `read` in a forked child process and returns the bytes it returned. When `read` throws, its
 /// message is rethrown as an Error; when the child dies (a signal, a sanitizer's abort), throws
-/// Error("<path>: the file is corrupt: reading it crashed <library> ..."). `read` must not need
-/// other threads of this process (OpenMP's pool included: set one thread first).
+/// Error("<path>: the file is corrupt: reading it crashed <library> ..."). The child runs `read` on
+/// one thread (OpenMP's pool is set to one); `read` must not start threads or pools of its own
+/// (at::set_num_threads does: it hangs after a fork).
 std::string read_in_child(const std::string& path, const std::string& library, const std::function<std::string()>& read);
 
 /// Inputs whose reading crashed a child so far in this process (the fuzzers report it).

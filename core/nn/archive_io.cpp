@@ -19,7 +19,6 @@ void load_archive_checked(torch::serialize::InputArchive& archive, const std::st
     }
   };
   read_in_child(path, "libtorch", [&] {
-    at::set_num_threads(1);  // the parent's OpenMP pool does not exist in the child
     torch::serialize::InputArchive a;
     load(a);
     return std::string();
