@@ -13,6 +13,7 @@
 #include <nlohmann/json.hpp>
 
 #include "core/isolate.h"
+#include "core/json_read.h"
 #include "core/nn/archive_io.h"
 #include "core/nn/policy_impl.h"
 #include "core/text_file.h"
@@ -109,9 +110,9 @@ template <typename T>
 T field_or(const nlohmann::json& j, const char* field, T fallback, const std::string& path) {
   if (!j.contains(field)) return fallback;
   try {
-    return j.at(field).get<T>();
-  } catch (const nlohmann::json::exception&) {
-    throw Error(path + ": field '" + field + "' has the wrong type (" + j.at(field).dump() + ")");
+    return json_read::get_checked<T>(j.at(field), path + ": field '" + field + "'");
+  } catch (const Error&) {
+    throw Error(path + ": field '" + field + "' has the wrong type or is out of range (" + j.at(field).dump() + ")");
   }
 }
 

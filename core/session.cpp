@@ -4,10 +4,12 @@
 #include <chrono>
 #include <cmath>
 #include <filesystem>
+#include <limits>
 
 #include <nlohmann/json.hpp>
 
 #include "core/config.h"
+#include "core/json_read.h"
 #include "core/text_file.h"
 
 namespace dd {
@@ -340,22 +342,46 @@ void DaggerSession::load_state(const std::string& dir) {
   nlohmann::json j;
   size_t n_expert = 0, n_robot = 0;
   std::vector<UpdateReport> reports;
+  // every counter, checked to exist and to fit its type (an Error names the file and field)
+  struct Counters {
+    int episode, expert_demos, interventions, updates, demos_at_last_update, expert_failures;
+    bool finishing, done;
+    uint64_t decisions;
+  } c{};
   try {
     j = nlohmann::json::parse(read_text(path));
-    n_expert = j.at("expert_episodes").get<size_t>();
-    n_robot = j.at("robot_episodes").get<size_t>();
+    auto field = [&](const nlohmann::json& o, const char* key) -> const nlohmann::json& {
+      if (!o.is_object() || !o.contains(key)) throw Error(path + ": missing field '" + key + "'");
+      return o.at(key);
+    };
+    auto num = [&](const nlohmann::json& o, const char* key, auto& out) {
+      out = json_read::get_checked<std::decay_t<decltype(out)>>(field(o, key), path + ": field '" + key + "'");
+    };
+    num(j, "expert_episodes", n_expert);
+    num(j, "robot_episodes", n_robot);
+    if (!field(j, "reports").is_array()) throw Error(path + ": field 'reports' must be a list");
     for (const auto& r : j.at("reports")) {
       UpdateReport u;
-      u.train_s = r.at("train_s").get<double>();
-      u.threshold_s = r.at("threshold_s").get<double>();
-      u.threshold = r.at("threshold").get<float>();
-      u.pairs = r.at("pairs").get<int>();
-      u.final_loss = r.at("final_loss").get<double>();
+      num(r, "train_s", u.train_s);
+      num(r, "threshold_s", u.threshold_s);
+      if (field(r, "threshold").is_null()) u.threshold = std::numeric_limits<float>::infinity();  // JSON has no inf
+      else num(r, "threshold", u.threshold);
+      num(r, "pairs", u.pairs);
+      num(r, "final_loss", u.final_loss);
       reports.push_back(u);
     }
-    if (static_cast<int>(reports.size()) != j.at("updates").get<int>())
+    num(j, "episode", c.episode);
+    num(j, "expert_demos", c.expert_demos);
+    num(j, "interventions", c.interventions);
+    num(j, "updates", c.updates);
+    num(j, "demos_at_last_update", c.demos_at_last_update);
+    num(j, "expert_failures", c.expert_failures);
+    num(j, "finishing", c.finishing);
+    num(j, "done", c.done);
+    num(j, "decisions", c.decisions);
+    if (static_cast<int>(reports.size()) != c.updates)
       throw Error(path + ": field 'reports' holds " + std::to_string(reports.size()) + " updates, field 'updates' says " +
-                  std::to_string(j.at("updates").get<int>()));
+                  std::to_string(c.updates));
   } catch (const nlohmann::json::exception& e) {
     throw Error(path + ": not a session state (" + std::string(e.what()) + ")");
   }
@@ -369,15 +395,15 @@ void DaggerSession::load_state(const std::string& dir) {
     if (i < n_expert) expert_data_.push_back(episodes[i].all_steps());
     else robot_data_.push_back(std::move(episodes[i]));
   }
-  episode_ = j["episode"].get<int>();
-  expert_demos_ = j["expert_demos"].get<int>();
-  interventions_ = j["interventions"].get<int>();
-  updates_ = j["updates"].get<int>();
-  demos_at_last_update_ = j["demos_at_last_update"].get<int>();
-  expert_failures_ = j["expert_failures"].get<int>();
-  finishing_ = j["finishing"].get<bool>();
-  done_ = j["done"].get<bool>();
-  decisions_ = j["decisions"].get<uint64_t>();
+  episode_ = c.episode;
+  expert_demos_ = c.expert_demos;
+  interventions_ = c.interventions;
+  updates_ = c.updates;
+  demos_at_last_update_ = c.demos_at_last_update;
+  expert_failures_ = c.expert_failures;
+  finishing_ = c.finishing;
+  done_ = c.done;
+  decisions_ = c.decisions;
   inference_s_ = j["inference_s"].get<double>();
   reports_ = std::move(reports);
   if (!reports_.empty()) gate_.set_threshold(reports_.back().threshold);

@@ -152,7 +152,12 @@ TEST(ExperimentConfig, BadProtocolOptionsNameTheFileAndKey) {
            {"preset: stack\nmethod: {score_weights: best}\n", "method.score_weights"},
            {"preset: stack\nmethod: {precision: float16}\n", "method.precision"},
            {"preset: stack\nmethod: {score_space: x0}\n", "method.score_space"},
-           {"preset: stack\ntrain: {epochs: -1}\n", "train.epochs"}}) {
+           {"preset: stack\ntrain: {epochs: -1}\n", "train.epochs"},
+           // numbers that do not fit their integer (tests/fuzz: converting them was undefined behaviour)
+           {"preset: stack\ndagger: {patience: 1e20}\n", "dagger.patience"},
+           {"preset: stack\ndagger: {patience: 2.5}\n", "dagger.patience"},
+           {"preset: stack\ndagger: {time_limit: 99999999999999999999}\n", "dagger.time_limit"},
+           {"preset: plug\npolicy: {relative_actions: [[0, 7222222222222222222222]]}\n", "relative_actions"}}) {
     const std::string path = write_config("dd_bad_protocol.yaml", text);
     try {
       load_experiment_config(path);
