@@ -5,6 +5,8 @@
 #   ./quickstart.sh test             the test suite (ctest), with the output of failures
 #   ./quickstart.sh build            install, configure and build only
 #   ./quickstart.sh bench [ARGS...]  the Google Benchmark programs
+#   ./quickstart.sh sanitize [ARGS]  the test suite built with AddressSanitizer and UBSan (build-asan/)
+#   ./quickstart.sh fuzz [SECONDS]   the libFuzzer harnesses of the file loaders (clang; build-fuzz/)
 #
 # Debian 12 packages only; nothing is downloaded at build or run time. Needs root or sudo the
 # first time (to install packages); says nothing about packages when all are present.
@@ -22,7 +24,7 @@ PACKAGES=(
   libyaml-cpp-dev libcli11-dev libspdlog-dev libfmt-dev nlohmann-json3-dev
   libgtest-dev libgmock-dev libbenchmark-dev
   xvfb xauth xdotool fonts-dejavu-core
-  python3-h5py
+  python3-h5py clang libclang-rt-14-dev
 )
 
 log() { printf '\033[1m[quickstart]\033[0m %s\n' "$*" >&2; }
@@ -83,6 +85,22 @@ case "$cmd" in
   build)
     install_missing
     configure_and_build
+    ;;
+  sanitize)
+    install_missing
+    BUILD_DIR=build-asan
+    if [[ ! -f $BUILD_DIR/CMakeCache.txt ]]; then
+      cmake -S . -B "$BUILD_DIR" -G Ninja -DDD_SANITIZE=ON -DCMAKE_BUILD_TYPE=RelWithDebInfo -DDD_BUILD_BENCHMARKS=OFF
+    fi
+    cmake --build "$BUILD_DIR" -j "$JOBS"
+    cd "$BUILD_DIR"
+    # libtorch, OpenMP and Mesa keep allocations to the end of the process: leak reports would be theirs
+    ASAN_OPTIONS=${ASAN_OPTIONS:-detect_leaks=0} UBSAN_OPTIONS=${UBSAN_OPTIONS:-print_stacktrace=1:halt_on_error=1} \
+      ctest --output-on-failure -j "$JOBS" "$@"
+    ;;
+  fuzz)
+    install_missing
+    tests/fuzz/run.sh "$@"
     ;;
   bench)
     install_missing
