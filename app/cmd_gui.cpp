@@ -1,4 +1,6 @@
 // diffdagger gui: the operator console, in a window or headless.
+#include <fmt/format.h>
+
 #include "app/commands.h"
 #include "app/experiments.h"
 #include "ui/console_app.h"
@@ -44,6 +46,10 @@ Command add_gui(CLI::App& app) {
       e.apply_quick(c.config);
     }
     if (!o->policies.empty()) {  // the session starts from these policies: their network, not the preset's
+      const size_t want = o->method == "ensemble" || o->method == "thrifty" ? static_cast<size_t>(c.config.method.members) : 1;
+      if (o->policies.size() != want)
+        throw Error(fmt::format("gui --policy: method {} adopts {} checkpoint{} (one per member for ensemble and thrifty), got {}",
+                                o->method, want, want == 1 ? "" : "s", o->policies.size()));
       use_checkpoint_network(c.config, o->policies.front());
       c.policies = o->policies;
     }
