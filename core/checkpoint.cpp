@@ -48,8 +48,13 @@ void read_into(const std::string& path, Contents& c, DiffusionPolicy::Impl& impl
     torch::serialize::InputArchive model, ema;
     c.archive.read("model", model);
     c.archive.read("ema", ema);
+    for (const auto& [name, t] : {std::pair<const char*, const torch::Tensor&>{"obs_scale", os}, {"obs_offset", oo}, {"act_scale", as},
+                                  {"act_offset", ao}})
+      check_tensor(t, path, name);
     impl.model->load(model);
     impl.ema->load(ema);
+    check_module(*impl.model, path, "model.");
+    check_module(*impl.ema, path, "ema.");
     impl.obs_norm = Normalizer::from_params(tensor_vec(os), tensor_vec(oo));
     impl.act_norm = Normalizer::from_params(tensor_vec(as), tensor_vec(ao));
   } catch (const c10::Error& e) {

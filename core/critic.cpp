@@ -153,8 +153,13 @@ void RiskCritic::load(const std::string& path) {
       throw Error(path + ": normaliser sizes (fields obs_scale, act_scale) do not match this critic's observations and actions");
     archive.read("q1", q1);
     archive.read("q2", q2);
+    for (const auto& [name, t] : {std::pair<const char*, const torch::Tensor&>{"obs_scale", os}, {"obs_offset", oo}, {"act_scale", as},
+                                  {"act_offset", ao}})
+      check_tensor(t, path, name);
     impl_->q1->load(q1);
     impl_->q2->load(q2);
+    check_module(*impl_->q1, path, "q1.");
+    check_module(*impl_->q2, path, "q2.");
     impl_->obs_norm = Normalizer::from_params(tensor_vec(os), tensor_vec(oo));
     impl_->act_norm = Normalizer::from_params(tensor_vec(as), tensor_vec(ao));
   } catch (const c10::Error& e) {

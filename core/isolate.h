@@ -19,7 +19,10 @@ namespace dd {
 /// (at::set_num_threads does: it hangs after a fork).
 std::string read_in_child(const std::string& path, const std::string& library, const std::function<std::string()>& read);
 
-/// Inputs whose reading crashed a child so far in this process (the fuzzers report it).
+/// With DD_READ_IN_PROCESS set in the environment, `read` runs in this process instead (for the
+/// fuzzers' deep runs, which need the reading code's coverage; never for users).
+///
+/// Inputs whose reading crashed a child so far in this process.
 int children_crashed();
 
 }  // namespace dd

@@ -225,6 +225,7 @@ void Trainer::resume(const std::string& path) {
       torch::Tensor t;
       const std::string key = "ema_" + std::to_string(i);
       archive.read(key, t);
+      check_tensor(t, path, key);
       if (!t.sizes().equals(s.ema_params[i].sizes())) throw Error(path + ": field '" + key + "' has another shape than the policy's");
       s.ema_params[i].copy_(t);
     }

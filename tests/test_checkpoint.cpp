@@ -6,6 +6,7 @@
 #include <fstream>
 
 #include "core/chunks.h"
+#include "core/nn/policy_impl.h"
 #include "core/policy.h"
 #include "core/synthetic.h"
 #include "core/trainer.h"
@@ -86,6 +87,25 @@ TEST_F(Checkpoint, TruncatedFileIsRejected) {
   const std::string m = message_of([&] { DiffusionPolicy::from_checkpoint(cut); });
   EXPECT_NE(m.find(cut), std::string::npos) << m;
   EXPECT_NE(m.find("truncated or corrupt"), std::string::npos) << m;
+}
+
+// A checkpoint the fuzzer (tests/fuzz) made: its archive loads, but a weight's view reaches past its
+// data, and the first use of the policy threw from inside libtorch. Now loading it is an Error.
+TEST_F(Checkpoint, WeightsOutsideTheirDataAreRejected) {
+  const std::string path = DD_SOURCE_DIR "/tests/data/fuzz_regressions/checkpoint_view_past_storage.pt";
+  const std::string m = message_of([&] { DiffusionPolicy::from_checkpoint(path); });
+  EXPECT_NE(m.find(path), std::string::npos) << m;
+  EXPECT_NE(m.find("reaches past its data"), std::string::npos) << m;
+}
+
+TEST_F(Checkpoint, NonFiniteWeightsAreRejected) {
+  const auto p = trained();
+  torch::NoGradGuard no_grad;
+  p->impl().ema->parameters()[3].view(-1)[0] = std::nanf("");
+  p->save(path_);
+  const std::string m = message_of([&] { DiffusionPolicy::from_checkpoint(path_); });
+  EXPECT_NE(m.find(path_), std::string::npos) << m;
+  EXPECT_NE(m.find("NaN or infinite"), std::string::npos) << m;
 }
 
 TEST_F(Checkpoint, MissingAndForeignFilesAreRejected) {

@@ -42,6 +42,30 @@ void save_archive_atomically(torch::serialize::OutputArchive& archive, const std
   }
 }
 
+void check_tensor(const torch::Tensor& t, const std::string& path, const std::string& name) {
+  if (!t.defined()) throw Error(path + ": field '" + name + "' holds no tensor");
+  if (t.numel() > 0) {
+    // the view must lie inside its storage: a corrupt archive can say otherwise, and the first
+    // operation on the tensor then throws from deep inside libtorch (or reads outside the buffer)
+    int64_t last = t.storage_offset();
+    for (int64_t d = 0; d < t.dim(); ++d) {
+      if (t.stride(d) < 0) throw Error(path + ": field '" + name + "' has a negative stride (corrupt)");
+      last += (t.size(d) - 1) * t.stride(d);
+    }
+    const auto capacity = static_cast<int64_t>(t.storage().nbytes() / t.element_size());
+    if (t.storage_offset() < 0 || last >= capacity)
+      throw Error(path + ": field '" + name + "' reaches past its data (element " + std::to_string(last) + " of " +
+                  std::to_string(capacity) + "): the file is corrupt");
+    if (t.is_floating_point() && !torch::isfinite(t).all().item<bool>())
+      throw Error(path + ": field '" + name + "' holds NaN or infinite values");
+  }
+}
+
+void check_module(const torch::nn::Module& module, const std::string& path, const std::string& prefix) {
+  for (const auto& p : module.named_parameters()) check_tensor(p.value(), path, prefix + p.key());
+  for (const auto& b : module.named_buffers()) check_tensor(b.value(), path, prefix + b.key());
+}
+
 torch::Tensor vec_tensor(const Vec& v) {
   return torch::from_blob(const_cast<float*>(v.data()), {v.size()}, torch::kFloat32).clone();
 }

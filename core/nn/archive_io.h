@@ -18,6 +18,13 @@ std::string first_line(const std::string& s);
 /// <what> file" or "path: not a readable <what> (truncated or corrupt): ...", or names the crash.
 void load_archive_checked(torch::serialize::InputArchive& archive, const std::string& path, const std::string& what);
 
+/// Throws Error naming the file and field when a loaded tensor's view reaches outside its storage
+/// (a corrupt archive; tests/fuzz found one that threw from inside libtorch at the first use) or,
+/// for floating-point tensors, holds NaN or infinite values.
+void check_tensor(const torch::Tensor& t, const std::string& path, const std::string& name);
+/// check_tensor() on every parameter and buffer of `module`, named prefix + its name.
+void check_module(const torch::nn::Module& module, const std::string& path, const std::string& prefix);
+
 /// A vector as a 1-D float tensor (a copy) and back: normalisers in archives.
 torch::Tensor vec_tensor(const Vec& v);
 Vec tensor_vec(const torch::Tensor& t);

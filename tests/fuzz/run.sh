@@ -7,6 +7,10 @@
 #   MERGE=1 tests/fuzz/run.sh ...           then fold the new inputs that add coverage into the
 #                                           committed corpus (libFuzzer -merge=1)
 #   tests/fuzz/run.sh --seeds               regenerate the seed inputs the harnesses write themselves
+#   tests/fuzz/run.sh --deep SECONDS NAME   the library readers in process (DD_READ_IN_PROCESS), so that
+#                                           the fuzzer sees their coverage, in libFuzzer's fork mode, which
+#                                           goes on past crashes; each crash's innermost frames are listed
+#                                           as ours or a library's (build-fuzz/deep/NAME/)
 #
 # A crash, a sanitizer report, an exception other than dd::Error, a hang (10 s) or more than 2 GB of
 # memory stops the harness, leaves the input in build-fuzz/artifacts/ and fails the script.
@@ -31,6 +35,23 @@ export OMP_NUM_THREADS=1 DD_THREADS=1
 if [[ ${1:-} == --seeds ]]; then
   for h in fuzz_dataset fuzz_checkpoint fuzz_state_dict; do DD_FUZZ_SEEDS=tests/fuzz/corpora/$h "$build/tests/fuzz/$h"; done
   ls -l tests/fuzz/corpora/*/
+  exit 0
+fi
+
+if [[ ${1:-} == --deep ]]; then
+  secs=$2 h=$3 out=$build/deep/$3
+  rm -rf "$out" && mkdir -p "$out/corpus" "$out/crashes"
+  cp tests/fuzz/corpora/$h/* "$out/corpus/"
+  DD_READ_IN_PROCESS=1 "$build/tests/fuzz/$h" -fork=1 -ignore_crashes=1 -ignore_ooms=1 -ignore_timeouts=1 -max_total_time="$secs" \
+    -timeout=10 -rss_limit_mb=2048 -max_len=262144 -artifact_prefix="$out/crashes/" "$out/corpus" >"$out/log" 2>&1 || true
+  grep -E '^#[0-9]+' "$out/log" | tail -1
+  # where each crash happened: the first stack frame outside the sanitizers and libFuzzer
+  for f in "$out"/crashes/*; do
+    [[ -f $f ]] || continue
+    frame=$(DD_READ_IN_PROCESS=1 "$build/tests/fuzz/$h" "$f" 2>&1 | grep -E '^ +#[0-9]+ ' | grep -v -E 'sanitizer|interceptor|__asan|fuzzer::|libc.so|memcpy|memmove|strlen' | head -1 |
+            sed -E 's/^ +#[0-9]+ 0x[0-9a-f]+ in //' | cut -c1-120)
+    echo "$(basename "$f"): ${frame:-no crash on rerun}"
+  done | sort -t: -k2 | tee "$out/crashes.txt"
   exit 0
 fi
 
