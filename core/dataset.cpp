@@ -405,13 +405,13 @@ class Bytes {
   template <typename T>
   void put_all(const T* p, size_t n) {
     put<uint64_t>(n);
-    out.append(reinterpret_cast<const char*>(p), n * sizeof(T));
+    if (n > 0) out.append(reinterpret_cast<const char*>(p), n * sizeof(T));
   }
   void put_string(const std::string& s) { put_all(s.data(), s.size()); }
   void put_mat(const Mat& m) {
     put<int64_t>(m.rows());
     put<int64_t>(m.cols());
-    out.append(reinterpret_cast<const char*>(m.data()), static_cast<size_t>(m.size()) * sizeof(float));
+    if (m.size() > 0) out.append(reinterpret_cast<const char*>(m.data()), static_cast<size_t>(m.size()) * sizeof(float));
   }
 
   explicit Bytes(std::string in = {}) : in_(std::move(in)) {}
@@ -440,6 +440,7 @@ class Bytes {
 
  private:
   void take(void* p, size_t n) {
+    if (n == 0) return;  // (an empty vector's data() may be null, which memcpy may not be given)
     if (n > in_.size() - pos_) throw Error("read_dataset: the reading child process sent a short message");
     std::memcpy(p, in_.data() + pos_, n);
     pos_ += n;
