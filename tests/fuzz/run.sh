@@ -81,7 +81,8 @@ for h in "${names[@]}"; do
   ft=$(grep -o 'ft: [0-9]*' <<<"$last" | grep -o '[0-9]*' || echo "?")
   printf '%-16s %10s %8s %8s %8s %s\n' "$h" "$runs" "$speed" "$cov" "$ft" "$result"
   if [[ ${MERGE:-0} == 1 && $result == ok ]]; then
-    "$build/tests/fuzz/$h" -merge=1 -max_len=$max_len -timeout=10 tests/fuzz/corpora/$h "$build/corpus/$h" >>"$log" 2>&1
+    "$build/tests/fuzz/$h" -merge=1 -max_len=$max_len -timeout=10 -rss_limit_mb=2048 -artifact_prefix="$build/artifacts/$h-merge-" \
+      tests/fuzz/corpora/$h "$build/corpus/$h" >>"$log" 2>&1
   fi
 done
 exit $status
