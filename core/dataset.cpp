@@ -119,7 +119,12 @@ Mat read_matrix(hid_t parent, const char* name, const std::string& where) {
   const int rank = H5Sget_simple_extent_ndims(space);
   if (rank < 1 || rank > 2) throw Error(where + ": dataset '" + name + "' must be 1-D or 2-D");
   H5Sget_simple_extent_dims(space, dims, nullptr);
-  Mat m(static_cast<Eigen::Index>(dims[0]), static_cast<Eigen::Index>(rank == 2 ? dims[1] : 1));
+  // a corrupt header can claim any size: refuse more than 2^31 values (8 GB) before allocating
+  const hsize_t cols = rank == 2 ? dims[1] : 1;
+  if (cols != 0 && dims[0] > (hsize_t{1} << 31) / cols)
+    throw Error(where + ": dataset '" + name + "' claims " + std::to_string(dims[0]) + " x " + std::to_string(cols) +
+                " values (corrupt)");
+  Mat m(static_cast<Eigen::Index>(dims[0]), static_cast<Eigen::Index>(cols));
   if (H5Dread(ds, H5T_NATIVE_FLOAT, H5S_ALL, H5S_ALL, H5P_DEFAULT, m.data()) < 0)
     throw Error(where + ": dataset '" + name + "' unreadable");
   return m;
@@ -459,7 +464,12 @@ std::vector<RecordedEpisode> read_dataset(const std::string& path, DatasetInfo* 
   if (!fs::exists(path)) throw Error(path + ": no such data set file");
   Bytes in(read_in_child(path, "libhdf5", [&] {
     DatasetInfo i;
-    const std::vector<RecordedEpisode> eps = read_dataset_here(path, &i);
+    std::vector<RecordedEpisode> eps;
+    try {
+      eps = read_dataset_here(path, &i);
+    } catch (const std::bad_alloc&) {
+      throw Error(path + ": reading it needs more memory than there is (a corrupt size?)");
+    }
     Bytes b;
     b.put<int64_t>(i.total);
     b.put<int64_t>(i.intervention_steps);

@@ -185,6 +185,10 @@ TEST_F(Dataset, AFileThatCrashedLibhdf5IsAnError) {
   const std::string path = DD_SOURCE_DIR "/tests/data/fuzz_regressions/hdf5_attr_exists_overflow.hdf5";
   const std::string m = message_of([&] { read_dataset(path); });
   EXPECT_NE(m.find(path), std::string::npos) << m;
+  // a header that claims a dataset of billions of rows (tests/fuzz: an allocation that aborted)
+  const std::string huge = DD_SOURCE_DIR "/tests/data/fuzz_regressions/hdf5_huge_dataset_dims.hdf5";
+  const std::string mh = message_of([&] { read_dataset(huge); });
+  EXPECT_NE(mh.find(huge), std::string::npos) << mh;
   const std::string good = file("good.hdf5");
   DatasetWriter writer(good, "{}");
   writer.append(make_episode(0));
