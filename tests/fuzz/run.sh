@@ -49,7 +49,7 @@ if [[ ${1:-} == --deep ]]; then
   for f in "$out"/crashes/*; do
     [[ -f $f ]] || continue
     frame=$(DD_READ_IN_PROCESS=1 "$build/tests/fuzz/$h" "$f" 2>&1 | grep -E '^ +#[0-9]+ ' | grep -v -E 'sanitizer|interceptor|__asan|fuzzer::|libc.so|memcpy|memmove|strlen' | head -1 |
-            sed -E 's/^ +#[0-9]+ 0x[0-9a-f]+ in //' | cut -c1-120)
+            sed -E 's/^ +#[0-9]+ 0x[0-9a-f]+ in //' | cut -c1-120 || true)
     echo "$(basename "$f"): ${frame:-no crash on rerun}"
   done | sort -t: -k2 | tee "$out/crashes.txt"
   exit 0
