@@ -16,6 +16,8 @@ void load_archive_checked(torch::serialize::InputArchive& archive, const std::st
       a.load_from(path);
     } catch (const c10::Error& e) {
       throw Error(path + ": not a readable " + what + " (truncated or corrupt): " + first_line(e.what()));
+    } catch (const std::exception& e) {  // TorchScript's parser throws std::runtime_error (tests/fuzz --deep)
+      throw Error(path + ": not a readable " + what + " (corrupt): " + first_line(e.what()));
     }
   };
   read_in_child(path, "libtorch", [&] {
