@@ -266,6 +266,16 @@ void write_demo(hid_t data, int index, const RecordedEpisode& ep, const std::str
 // extends it in place instead of deleting and re-creating it (HDF5 does not reclaim deleted space).
 constexpr size_t kMaskNameWidth = 32;  // "demo_" and up to 26 digits
 
+// Whether /mask/<key> is in the layout write_filter_key extends: chunked, of kMaskNameWidth-byte strings.
+bool extendable_filter_key(hid_t mask, const char* key) {
+  H5 ds(H5Dopen2(mask, key, H5P_DEFAULT), H5Dclose);
+  if (!ds.ok()) return false;
+  H5 props(H5Dget_create_plist(ds), H5Pclose);
+  H5 type(H5Dget_type(ds), H5Tclose);
+  return props.ok() && type.ok() && H5Pget_layout(props) == H5D_CHUNKED && H5Tget_class(type) == H5T_STRING &&
+         H5Tis_variable_str(type) == 0 && H5Tget_size(type) == kMaskNameWidth;
+}
+
 void write_filter_key(hid_t file, const char* key, const std::vector<std::string>& demos, const std::string& path) {
   if (H5Lexists(file, "mask", H5P_DEFAULT) <= 0) {
     H5 group(H5Gcreate2(file, "mask", H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), H5Gclose);
@@ -282,7 +292,13 @@ void write_filter_key(hid_t file, const char* key, const std::vector<std::string
   check(H5Tset_strpad(type, H5T_STR_NULLPAD), path, "a string type");
   const hsize_t dims[1] = {demos.size()};
   const std::string where = std::string("/mask/") + key;
-  const bool exists = H5Lexists(mask, key, H5P_DEFAULT) > 0;
+  bool exists = H5Lexists(mask, key, H5P_DEFAULT) > 0;
+  if (exists && !extendable_filter_key(mask, key)) {
+    // Written before filter keys were resizable (contiguous, sized to the longest name): re-created
+    // once in the current layout, so data sets from earlier versions still take appends.
+    check(H5Ldelete(mask, key, H5P_DEFAULT), path, "replacing " + where);
+    exists = false;
+  }
   H5 ds = [&] {
     if (exists) return H5(H5Dopen2(mask, key, H5P_DEFAULT), H5Dclose);
     const hsize_t max_dims[1] = {H5S_UNLIMITED};
