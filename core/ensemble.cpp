@@ -5,10 +5,21 @@
 #include <numeric>
 #include <random>
 
+#include <unistd.h>
+
+#include <cstdio>
+#include <cstring>
+#include <filesystem>
+
 #include <ATen/Parallel.h>
+#include <fmt/format.h>
 #include <spdlog/spdlog.h>
 
+#include "core/isolate.h"
+
 namespace dd {
+
+namespace fs = std::filesystem;
 
 PolicyEnsemble::PolicyEnsemble(const PolicyConfig& config, int members, uint64_t seed) : seed_(seed) {
   if (members < 2) throw Error("ensemble: needs at least 2 members, got " + std::to_string(members));
@@ -60,7 +71,9 @@ std::vector<TrainStats> PolicyEnsemble::train(const std::vector<Episode>& episod
     }) : ProgressFn{};
     stats[static_cast<size_t>(m)] = train_member(static_cast<int>(m), data[static_cast<size_t>(m)], config, member_progress);
   };
-  if (parallel_members_ && at::get_num_threads() > 1) {
+  if (parallel_members_ && train_in_processes_ && at::get_num_threads() > 1) {
+    train_in_children(data, config, total, progress, stats);
+  } else if (parallel_members_ && at::get_num_threads() > 1) {
     // One member per thread, one thread inside each: a training step uses two threads poorly, so
     // two members side by side get through almost twice the steps. Inside the parallel region
     // torch's operators run single-threaded, so each member trains as it would with --threads 1.
@@ -71,6 +84,58 @@ std::vector<TrainStats> PolicyEnsemble::train(const std::vector<Episode>& episod
     for (int64_t m = 0; m < size(); ++m) train_one(m);
   }
   return stats;
+}
+
+void PolicyEnsemble::train_in_children(const std::vector<std::vector<Episode>>& data, const TrainConfig& config, int total,
+                                       const ProgressFn& progress, std::vector<TrainStats>& stats) {
+  // Each child trains one member on one thread, saves it to a temporary checkpoint and returns the
+  // file's name after its training stats; progress comes back as "steps loss" messages.
+  const fs::path dir = fs::temp_directory_path();
+  auto job = [&](int m, const ReportFn& report) {
+    const ProgressFn member_progress = [&](int steps, int, double loss) { report(fmt::format("{} {}", steps, loss)); };
+    const TrainStats s = train_member(m, data[static_cast<size_t>(m)], config, progress ? member_progress : ProgressFn{});
+    const std::string file = (dir / fmt::format("dd_member_{}_{}.pt", ::getpid(), m)).string();
+    members_[static_cast<size_t>(m)]->save(file);
+    std::string out(sizeof(double), '\0');
+    std::memcpy(out.data(), &s.seconds, sizeof(double));
+    const uint64_t count = s.losses.size();
+    out.append(reinterpret_cast<const char*>(&count), sizeof count);
+    out.append(reinterpret_cast<const char*>(s.losses.data()), s.losses.size() * sizeof(float));
+    return out + file;
+  };
+  std::vector<int> done(members_.size(), 0);
+  auto on_report = [&](int m, const std::string& message) {
+    int steps = 0;
+    double loss = 0;
+    if (std::sscanf(message.c_str(), "%d %lf", &steps, &loss) != 2) return;
+    done[static_cast<size_t>(m)] = steps;
+    progress(std::min(total, std::accumulate(done.begin(), done.end(), 0)), total, loss);
+  };
+  // Every member at once, the kernel sharing the cores between them: 5 one-thread members on 2 cores
+  // take 2.5 members' time, against 3 when they go 2 at a time (measured: 8.4 s against 11.1 s,
+  // BM_EnsembleTrain_32_64_128).
+  const std::vector<std::string> results = run_in_children(size(), size(), "ensemble training", job, on_report);
+  for (size_t m = 0; m < results.size(); ++m) {
+    const std::string& r = results[m];
+    uint64_t count = 0;
+    if (r.size() < sizeof(double) + sizeof count) throw Error("ensemble training: member " + std::to_string(m) + " sent a short result");
+    std::memcpy(&stats[m].seconds, r.data(), sizeof(double));
+    std::memcpy(&count, r.data() + sizeof(double), sizeof count);
+    const size_t at = sizeof(double) + sizeof count + count * sizeof(float);
+    if (r.size() <= at) throw Error("ensemble training: member " + std::to_string(m) + " sent a short result");
+    stats[m].losses.resize(count);
+    std::memcpy(stats[m].losses.data(), r.data() + sizeof(double) + sizeof count, count * sizeof(float));
+    const std::string file = r.substr(at);
+    try {
+      members_[m]->load(file);
+    } catch (...) {
+      std::error_code ec;
+      fs::remove(file, ec);
+      throw;
+    }
+    std::error_code ec;
+    fs::remove(file, ec);
+  }
 }
 
 namespace {

@@ -1,5 +1,6 @@
 #include "core/isolate.h"
 
+#include <poll.h>
 #include <signal.h>
 #include <string.h>
 #include <sys/wait.h>
@@ -7,7 +8,9 @@
 
 #include <atomic>
 #include <cerrno>
+#include <cstdint>
 #include <cstdlib>
+#include <cstring>
 
 #include "core/config.h"
 
@@ -98,6 +101,139 @@ std::string read_in_child(const std::string& path, const std::string& library, c
   const std::string how = WIFSIGNALED(status) ? "signal " + std::to_string(WTERMSIG(status)) + " (" + strsignal(WTERMSIG(status)) + ")"
                                               : "exit status " + std::to_string(WEXITSTATUS(status));
   throw Error(path + ": the file is corrupt: reading it crashed " + library + " (" + how + " in the child process that read it)");
+}
+
+namespace {
+
+// run_in_children's frames on a child's pipe: a type byte ('M' message, 'O' result, 'E' error),
+// the payload's length (4 bytes, host order) and the payload.
+bool write_frame(int fd, char type, const std::string& payload) {
+  std::string frame(5, type);
+  const uint32_t size = static_cast<uint32_t>(payload.size());
+  std::memcpy(&frame[1], &size, 4);
+  frame += payload;
+  return write_all(fd, frame.data(), frame.size());
+}
+
+std::string describe_exit(int status) {
+  if (WIFSIGNALED(status)) return "signal " + std::to_string(WTERMSIG(status)) + " (" + strsignal(WTERMSIG(status)) + ")";
+  return "exit status " + std::to_string(WEXITSTATUS(status));
+}
+
+struct Child {
+  int job = -1;
+  pid_t pid = -1;
+  int fd = -1;
+  std::string buffer;  // bytes read and not yet parsed into frames
+  bool done = false;   // its result ('O') arrived
+};
+
+}  // namespace
+
+std::vector<std::string> run_in_children(int n, int concurrent, const std::string& what,
+                                         const std::function<std::string(int, const ReportFn&)>& job,
+                                         const std::function<void(int, const std::string&)>& on_report) {
+  std::vector<std::string> results(static_cast<size_t>(std::max(n, 0)));
+  std::vector<Child> running;
+  int next = 0;
+  auto kill_all = [&] {
+    for (Child& c : running) {
+      ::kill(c.pid, SIGKILL);
+      ::close(c.fd);
+      int status = 0;
+      while (::waitpid(c.pid, &status, 0) < 0 && errno == EINTR) {
+      }
+    }
+    running.clear();
+  };
+  auto fail = [&](const std::string& message) {
+    kill_all();
+    throw Error(what + ": " + message);
+  };
+  auto start = [&](int i) {
+    int fds[2];
+    if (::pipe(fds) != 0) fail(std::string("could not create a pipe for a child process: ") + strerror(errno));
+    const pid_t pid = ::fork();
+    if (pid < 0) {
+      ::close(fds[0]);
+      ::close(fds[1]);
+      fail(std::string("could not start a child process: ") + strerror(errno));
+    }
+    if (pid == 0) {  // the child: run the job, send its messages and its result, leave without cleanup
+      ::close(fds[0]);
+      for (const Child& c : running) ::close(c.fd);
+      child_setup();
+      const int fd = fds[1];
+      const ReportFn report = [fd](const std::string& message) { write_frame(fd, 'M', message); };
+      bool sent = false;
+      try {
+        sent = write_frame(fd, 'O', job(i, report));
+      } catch (const std::exception& e) {
+        sent = write_frame(fd, 'E', e.what());
+      } catch (...) {
+        sent = write_frame(fd, 'E', "unknown error");
+      }
+      ::_exit(sent ? 0 : 3);
+    }
+    ::close(fds[1]);
+    Child c;
+    c.job = i;
+    c.pid = pid;
+    c.fd = fds[0];
+    running.push_back(std::move(c));
+  };
+
+  concurrent = std::max(concurrent, 1);
+  while (next < n || !running.empty()) {
+    while (next < n && static_cast<int>(running.size()) < concurrent) start(next++);
+    std::vector<pollfd> polls;
+    for (const Child& c : running) polls.push_back(pollfd{c.fd, POLLIN, 0});
+    if (::poll(polls.data(), polls.size(), -1) < 0) {
+      if (errno == EINTR) continue;
+      fail(std::string("waiting for the child processes failed: ") + strerror(errno));
+    }
+    for (size_t k = 0; k < polls.size(); ++k) {
+      if (!(polls[k].revents & (POLLIN | POLLHUP | POLLERR))) continue;
+      Child& c = running[k];
+      char buf[1 << 16];
+      const ssize_t r = ::read(c.fd, buf, sizeof buf);
+      if (r < 0 && errno == EINTR) continue;
+      if (r > 0) {
+        c.buffer.append(buf, static_cast<size_t>(r));
+        // every whole frame in the buffer
+        size_t pos = 0;
+        while (c.buffer.size() - pos >= 5) {
+          uint32_t size = 0;
+          std::memcpy(&size, &c.buffer[pos + 1], 4);
+          if (c.buffer.size() - pos - 5 < size) break;
+          const char type = c.buffer[pos];
+          std::string payload = c.buffer.substr(pos + 5, size);
+          pos += 5 + size;
+          if (type == 'M') {
+            if (on_report) on_report(c.job, payload);
+          } else if (type == 'O') {
+            results[static_cast<size_t>(c.job)] = std::move(payload);
+            c.done = true;
+          } else {
+            fail("job " + std::to_string(c.job) + ": " + payload);
+          }
+        }
+        c.buffer.erase(0, pos);
+        continue;
+      }
+      // end of file: the child has exited, or is about to
+      int status = 0;
+      while (::waitpid(c.pid, &status, 0) < 0 && errno == EINTR) {
+      }
+      ::close(c.fd);
+      const Child ended = c;
+      running.erase(running.begin() + static_cast<std::ptrdiff_t>(k));
+      if (!ended.done || !WIFEXITED(status) || WEXITSTATUS(status) != 0)
+        fail("job " + std::to_string(ended.job) + ": the child process running it died (" + describe_exit(status) + ")");
+      break;  // `running` changed: poll again
+    }
+  }
+  return results;
 }
 
 }  // namespace dd

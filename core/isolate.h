@@ -9,6 +9,7 @@
 
 #include <functional>
 #include <string>
+#include <vector>
 
 namespace dd {
 
@@ -24,5 +25,19 @@ std::string read_in_child(const std::string& path, const std::string& library, c
 ///
 /// Inputs whose reading crashed a child so far in this process.
 int children_crashed();
+
+/// What a job in a child process calls to send a message to the parent while it runs (progress).
+using ReportFn = std::function<void(const std::string& message)>;
+
+/// Runs job(i, report) for i in [0, n) in forked child processes, at most `concurrent` at a time,
+/// each on one thread, and returns the jobs' results in order. Separate processes, not threads,
+/// because two single-threaded training loops in one process run no faster than one after another
+/// on this machine (OpenMP's barriers and the shared address space's page faults), while two
+/// processes run at nearly twice the speed. `on_report(i, message)` receives job i's messages on the
+/// calling thread as they arrive. When a job throws, or a child dies, the other children are killed
+/// and Error("<what>: job i: ...") is thrown. Same rules for `job` as for read_in_child's `read`.
+std::vector<std::string> run_in_children(int n, int concurrent, const std::string& what,
+                                         const std::function<std::string(int, const ReportFn&)>& job,
+                                         const std::function<void(int, const std::string&)>& on_report = {});
 
 }  // namespace dd

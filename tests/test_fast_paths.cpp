@@ -245,8 +245,9 @@ TEST(FastPaths, ScalarSchedulerStepMatchesTheTensorFormulas) {
   }
 }
 
-// With 2 threads the members train side by side, one thread each: the same weights as one after
-// another with 1 thread, and so a member's chunks are the same.
+// With 2 threads the members train side by side, one thread each, in child processes (the default)
+// or in threads: the same weights and losses as one after another with 1 thread, and so a member's
+// chunks are the same.
 TEST(FastPaths, EnsembleMembersTrainedSideBySideMatchOneThread) {
   const int threads = num_threads();
   PolicyConfig c = small_config("tiny");
@@ -254,24 +255,35 @@ TEST(FastPaths, EnsembleMembersTrainedSideBySideMatchOneThread) {
   TrainConfig t;
   t.steps = 40;
   t.batch_size = 16;
-  auto trained = [&](int n_threads) {
+  std::vector<std::vector<TrainStats>> stats;
+  auto trained = [&](int n_threads, bool processes) {
     set_num_threads(n_threads);
     auto e = std::make_unique<PolicyEnsemble>(c, 3, 4);
+    e->set_train_in_processes(processes);
     int last_done = 0, last_total = 0;
-    e->train(episodes, t, [&](int done, int total, double) {
+    stats.push_back(e->train(episodes, t, [&](int done, int total, double) {
       EXPECT_GE(done, last_done) << "progress went back";
       last_done = done, last_total = total;
-    });
+    }));
     EXPECT_EQ(last_done, 3 * 40);
     EXPECT_EQ(last_total, 3 * 40);
     return e;
   };
-  const auto serial = trained(1);
-  const auto side_by_side = trained(2);
+  const auto serial = trained(1, true);
+  const auto in_threads = trained(2, false);
+  const auto in_processes = trained(2, true);
   set_num_threads(threads);
   const Vec o = Vec::Constant(c.obs_dim, 0.2f);
-  for (int m = 0; m < 3; ++m)
-    EXPECT_TRUE(serial->member(m).sample(o, 11).isApprox(side_by_side->member(m).sample(o, 11), 1e-5f)) << "member " << m;
+  for (int m = 0; m < 3; ++m) {
+    const Mat reference = serial->member(m).sample(o, 11);
+    EXPECT_TRUE(reference.isApprox(in_threads->member(m).sample(o, 11), 1e-5f)) << "member " << m;
+    EXPECT_TRUE(reference.isApprox(in_processes->member(m).sample(o, 11), 1e-5f)) << "member " << m;
+    for (size_t k = 1; k < stats.size(); ++k) {
+      ASSERT_EQ(stats[k][m].losses.size(), 40u);
+      for (size_t i = 0; i < 40; ++i) EXPECT_NEAR(stats[0][m].losses[i], stats[k][m].losses[i], 1e-5) << m << " " << i;
+      EXPECT_GT(stats[k][m].seconds, 0);
+    }
+  }
 }
 
 TEST(FastPaths, EnsembleMembersSampledSideBySideGiveTheSameChunks) {

@@ -3,7 +3,11 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <chrono>
 #include <filesystem>
+#include <vector>
+
+#include <unistd.h>
 
 #include <signal.h>
 
@@ -107,4 +111,48 @@ TEST(ReadInChild, ALibraryCrashIsAnErrorNamingTheFile) {
     }
   }
   EXPECT_EQ(dd::children_crashed(), before + 2);
+}
+
+TEST(RunInChildren, ResultsInOrderAndEveryReportDelivered) {
+  for (const int concurrent : {1, 2, 5}) {
+    std::vector<std::vector<std::string>> reports(5);
+    const std::vector<std::string> results = dd::run_in_children(
+        5, concurrent, "jobs",
+        [](int i, const dd::ReportFn& report) {
+          for (int k = 0; k < 3; ++k) report(std::to_string(i) + "." + std::to_string(k));
+          ::usleep(static_cast<useconds_t>((5 - i) * 2000));  // finish out of order
+          return std::string(static_cast<size_t>(i) * (1 << 17), static_cast<char>('a' + i));  // up to 512 KiB
+        },
+        [&](int i, const std::string& m) { reports[static_cast<size_t>(i)].push_back(m); });
+    ASSERT_EQ(results.size(), 5u);
+    for (int i = 0; i < 5; ++i) {
+      EXPECT_EQ(results[static_cast<size_t>(i)], std::string(static_cast<size_t>(i) * (1 << 17), static_cast<char>('a' + i))) << i;
+      const std::vector<std::string> want = {std::to_string(i) + ".0", std::to_string(i) + ".1", std::to_string(i) + ".2"};
+      EXPECT_EQ(reports[static_cast<size_t>(i)], want) << "concurrent " << concurrent;
+    }
+  }
+}
+
+TEST(RunInChildren, AJobsErrorOrDeathStopsTheOthersAndIsAnError) {
+  auto run = [](bool crash) {
+    try {
+      dd::run_in_children(4, 2, "training", [crash](int i, const dd::ReportFn&) -> std::string {
+        if (i == 2) {
+          if (!crash) throw dd::Error("member data is empty");
+          ::signal(SIGSEGV, SIG_DFL);
+          ::raise(SIGSEGV);
+        }
+        if (i == 3) ::sleep(60);  // killed, not waited for
+        return "ok";
+      });
+    } catch (const dd::Error& e) {
+      return std::string(e.what());
+    }
+    return std::string("(no error)");
+  };
+  const auto start = std::chrono::steady_clock::now();
+  EXPECT_EQ(run(false), "training: job 2: member data is empty");
+  const std::string died = run(true);
+  EXPECT_NE(died.find("training: job 2: the child process running it died (signal " + std::to_string(SIGSEGV)), std::string::npos) << died;
+  EXPECT_LT(std::chrono::steady_clock::now() - start, std::chrono::seconds(30)) << "the sleeping job was waited for";
 }

@@ -11,8 +11,9 @@
 //   EnsembleConv  5 members' convolution forward and backward: separate, or grouped (groups = 5)
 //   EnsembleSpread  the ensemble's threshold setting: 5 members sample for 256 observations (T_p 32);
 //                 ...Torch: on torch's operators; ...Serial: members one after another
-//   EnsembleTrain  one ensemble update (5 members x 20 steps, batch 128, T_p 32), members side by side;
-//                 ...Serial: one after another
+//   EnsembleTrain  one ensemble update (5 members x 20 steps, batch 128, T_p 32), members side by side
+//                 in child processes (the default); ...Threads: in threads; ...Serial: one after another
+//                 with both threads inside each
 //   Threshold     the alpha-quantile of 400 pairs' expected losses, screened; ...AllRows: unscreened
 //   Sgemm         a large square sgemm through the same OpenBLAS: this machine's practical fp32
 //                 peak, the yardstick for the others (counter GFLOPS)
@@ -135,10 +136,11 @@ void EnsembleSpread(benchmark::State& state, PolicyConfig config, bool torch_den
 
 // One ensemble update: 5 members, 20 steps each at batch 128 (T_p 32), side by side (one thread
 // each) or one after another (all threads in each step).
-void EnsembleTrain(benchmark::State& state, PolicyConfig config, bool parallel) {
+void EnsembleTrain(benchmark::State& state, PolicyConfig config, bool parallel, bool processes = true) {
   config.horizon = 32;
   PolicyEnsemble ensemble(config, 5, 0);
   ensemble.set_parallel_members(parallel);
+  ensemble.set_train_in_processes(processes);
   const std::vector<Episode> episodes = bimodal_episodes(40, 50, 20, 10, 1);
   TrainConfig t;
   t.batch_size = 128;
@@ -234,6 +236,7 @@ BENCHMARK_CAPTURE(EnsembleSpread, 32_64_128, kCpuDefault, true, true)->Name("BM_
 BENCHMARK_CAPTURE(EnsembleSpread, 32_64_128, kCpuDefault, false, false)->Name("BM_EnsembleSpreadSerial_32_64_128")->Unit(benchmark::kMillisecond)->MeasureProcessCPUTime()->UseRealTime();
 BENCHMARK_CAPTURE(EnsembleSpread, 32_64_128, kCpuDefault, true, false)->Name("BM_EnsembleSpreadTorchSerial_32_64_128")->Unit(benchmark::kMillisecond)->MeasureProcessCPUTime()->UseRealTime();
 BENCHMARK_CAPTURE(EnsembleTrain, 32_64_128, kCpuDefault, true)->Name("BM_EnsembleTrain_32_64_128")->Unit(benchmark::kMillisecond)->MeasureProcessCPUTime()->UseRealTime();
+BENCHMARK_CAPTURE(EnsembleTrain, 32_64_128, kCpuDefault, true, false)->Name("BM_EnsembleTrainThreads_32_64_128")->Unit(benchmark::kMillisecond)->MeasureProcessCPUTime()->UseRealTime();
 BENCHMARK_CAPTURE(EnsembleTrain, 32_64_128, kCpuDefault, false)->Name("BM_EnsembleTrainSerial_32_64_128")->Unit(benchmark::kMillisecond)->MeasureProcessCPUTime()->UseRealTime();
 BENCHMARK_CAPTURE(Threshold, 32_64_128, kCpuDefault, true)->Name("BM_Threshold_32_64_128")->Unit(benchmark::kMillisecond)->Iterations(2);
 BENCHMARK_CAPTURE(Threshold, 32_64_128, kCpuDefault, false)->Name("BM_ThresholdAllRows_32_64_128")->Unit(benchmark::kMillisecond)->Iterations(2);
