@@ -37,26 +37,16 @@ void open_checkpoint(const std::string& path, Contents& out) {
 
 void read_into(const std::string& path, Contents& c, DiffusionPolicy::Impl& impl) {
   try {
-    torch::Tensor os, oo, as, ao;
-    c.archive.read("obs_scale", os);
-    c.archive.read("obs_offset", oo);
-    c.archive.read("act_scale", as);
-    c.archive.read("act_offset", ao);
-    if (os.numel() != c.config.obs_dim || oo.numel() != c.config.obs_dim || as.numel() != c.config.action_norm_dim() ||
-        ao.numel() != c.config.action_norm_dim())
-      throw Error(path + ": normalizer sizes do not match the stored config (fields obs_scale/act_scale)");
+    auto [obs_norm, act_norm] = read_normalizers(c.archive, path, c.config.obs_dim, c.config.action_norm_dim(), "the stored config");
     torch::serialize::InputArchive model, ema;
     c.archive.read("model", model);
     c.archive.read("ema", ema);
-    for (const auto& [name, t] : {std::pair<const char*, const torch::Tensor&>{"obs_scale", os}, {"obs_offset", oo}, {"act_scale", as},
-                                  {"act_offset", ao}})
-      check_tensor(t, path, name);
     impl.model->load(model);
     impl.ema->load(ema);
     check_module(*impl.model, path, "model.");
     check_module(*impl.ema, path, "ema.");
-    impl.obs_norm = Normalizer::from_params(tensor_vec(os), tensor_vec(oo));
-    impl.act_norm = Normalizer::from_params(tensor_vec(as), tensor_vec(ao));
+    impl.obs_norm = std::move(obs_norm);
+    impl.act_norm = std::move(act_norm);
   } catch (const c10::Error& e) {
     throw Error(path + ": checkpoint weights are incomplete or do not fit the network: " + first_line(e.what()));
   }
@@ -71,10 +61,7 @@ void DiffusionPolicy::save(const std::string& path) const {
   archive.write("format", c10::IValue(std::string(kFormat)));
   archive.write("version", c10::IValue(kVersion));
   archive.write("config", c10::IValue(nlohmann::json(impl_->config).dump()));
-  archive.write("obs_scale", vec_tensor(impl_->obs_norm.scale()));
-  archive.write("obs_offset", vec_tensor(impl_->obs_norm.offset()));
-  archive.write("act_scale", vec_tensor(impl_->act_norm.scale()));
-  archive.write("act_offset", vec_tensor(impl_->act_norm.offset()));
+  write_normalizers(archive, impl_->obs_norm, impl_->act_norm);
   torch::serialize::OutputArchive model, ema;
   impl_->model->save(model);
   impl_->ema->save(ema);

@@ -125,10 +125,7 @@ std::vector<float> RiskCritic::q(const Mat& obs, const Mat& actions) const {
 void RiskCritic::save(const std::string& path) const {
   torch::serialize::OutputArchive archive, q1, q2;
   archive.write("format", c10::IValue(std::string("diffdagger-critic")));
-  archive.write("obs_scale", vec_tensor(impl_->obs_norm.scale()));
-  archive.write("obs_offset", vec_tensor(impl_->obs_norm.offset()));
-  archive.write("act_scale", vec_tensor(impl_->act_norm.scale()));
-  archive.write("act_offset", vec_tensor(impl_->act_norm.offset()));
+  write_normalizers(archive, impl_->obs_norm, impl_->act_norm);
   impl_->q1->save(q1);
   impl_->q2->save(q2);
   archive.write("q1", q1);
@@ -144,24 +141,15 @@ void RiskCritic::load(const std::string& path) {
     c10::IValue format;
     if (!archive.try_read("format", format) || !format.isString() || format.toStringRef() != "diffdagger-critic")
       throw Error(path + ": not a diffdagger critic file (missing field 'format')");
-    torch::Tensor os, oo, as, ao;
-    archive.read("obs_scale", os);
-    archive.read("obs_offset", oo);
-    archive.read("act_scale", as);
-    archive.read("act_offset", ao);
-    if (os.numel() != impl_->obs_dim || oo.numel() != impl_->obs_dim || as.numel() != impl_->action_dim || ao.numel() != impl_->action_dim)
-      throw Error(path + ": normaliser sizes (fields obs_scale, act_scale) do not match this critic's observations and actions");
+    auto [obs_norm, act_norm] = read_normalizers(archive, path, impl_->obs_dim, impl_->action_dim, "this critic's observations and actions");
     archive.read("q1", q1);
     archive.read("q2", q2);
-    for (const auto& [name, t] : {std::pair<const char*, const torch::Tensor&>{"obs_scale", os}, {"obs_offset", oo}, {"act_scale", as},
-                                  {"act_offset", ao}})
-      check_tensor(t, path, name);
     impl_->q1->load(q1);
     impl_->q2->load(q2);
     check_module(*impl_->q1, path, "q1.");
     check_module(*impl_->q2, path, "q2.");
-    impl_->obs_norm = Normalizer::from_params(tensor_vec(os), tensor_vec(oo));
-    impl_->act_norm = Normalizer::from_params(tensor_vec(as), tensor_vec(ao));
+    impl_->obs_norm = std::move(obs_norm);
+    impl_->act_norm = std::move(act_norm);
   } catch (const c10::Error& e) {
     throw Error(path + ": not a readable critic of this size (truncated, corrupt or another network): " + first_line(e.what()));
   }

@@ -5,7 +5,12 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <filesystem>
+#include <fstream>
 
+#include <unistd.h>
+
+#include "core/critic.h"
 #include "core/ensemble.h"
 #include "core/evaluation.h"
 #include "core/method.h"
@@ -119,6 +124,44 @@ TEST(Methods, ReinitialisingKeepsTheNormalisersAndDrawsNewWeights) {
   p.reinitialize(99);
   EXPECT_TRUE(p.obs_normalizer().scale().isApprox(scale));
   EXPECT_FALSE(p.sample(obs, 3).isApprox(trained, 1e-3f));
+}
+
+// Thrifty's critic saved and loaded (resume points): the same Q values; a critic file of other sizes,
+// a truncated one and a missing one are Errors naming the file.
+TEST(Methods, TheRiskCriticSavesAndLoads) {
+  namespace fs = std::filesystem;
+  const auto episodes = bimodal_episodes(6, 10, 2, 2, /*seed=*/5);
+  std::vector<RecordedEpisode> data = failing_robot_data(episodes);
+  CriticConfig cc;
+  cc.steps = 20;
+  cc.hidden = 16;
+  RiskCritic critic(2, 2, cc);
+  critic.train(data);
+  const fs::path file = fs::temp_directory_path() / ("dd_critic_" + std::to_string(::getpid()) + ".pt");
+  critic.save(file.string());
+  RiskCritic loaded(2, 2, cc);
+  loaded.load(file.string());
+  const Mat obs = episodes[0].obs, actions = episodes[0].actions;
+  const std::vector<float> a = critic.q(obs, actions), b = loaded.q(obs, actions);
+  ASSERT_EQ(a.size(), b.size());
+  for (size_t i = 0; i < a.size(); ++i) EXPECT_FLOAT_EQ(a[i], b[i]) << i;
+
+  auto message = [](const std::function<void()>& f) {
+    try {
+      f();
+    } catch (const Error& e) {
+      return std::string(e.what());
+    }
+    return std::string("(no error)");
+  };
+  RiskCritic wider(3, 2, cc);
+  const std::string sizes = message([&] { wider.load(file.string()); });
+  EXPECT_NE(sizes.find(file.string() + ": normaliser sizes (fields obs_scale, act_scale) do not match"), std::string::npos) << sizes;
+  fs::resize_file(file, fs::file_size(file) / 2);
+  const std::string truncated = message([&] { loaded.load(file.string()); });
+  EXPECT_EQ(truncated.rfind(file.string() + ": ", 0), 0u) << truncated;
+  fs::remove(file);
+  EXPECT_EQ(message([&] { loaded.load(file.string()); }), file.string() + ": no such critic file");
 }
 
 TEST(FailurePrediction, EmptyClassesAreUndefinedNotZero) {

@@ -77,4 +77,26 @@ Vec tensor_vec(const torch::Tensor& t) {
   return Eigen::Map<const Vec>(c.data_ptr<float>(), c.numel());
 }
 
+void write_normalizers(torch::serialize::OutputArchive& archive, const Normalizer& obs, const Normalizer& action) {
+  archive.write("obs_scale", vec_tensor(obs.scale()));
+  archive.write("obs_offset", vec_tensor(obs.offset()));
+  archive.write("act_scale", vec_tensor(action.scale()));
+  archive.write("act_offset", vec_tensor(action.offset()));
+}
+
+std::pair<Normalizer, Normalizer> read_normalizers(torch::serialize::InputArchive& archive, const std::string& path, int obs_dim,
+                                                   int action_dim, const std::string& owner) {
+  torch::Tensor os, oo, as, ao;
+  archive.read("obs_scale", os);
+  archive.read("obs_offset", oo);
+  archive.read("act_scale", as);
+  archive.read("act_offset", ao);
+  if (os.numel() != obs_dim || oo.numel() != obs_dim || as.numel() != action_dim || ao.numel() != action_dim)
+    throw Error(path + ": normaliser sizes (fields obs_scale, act_scale) do not match " + owner);
+  for (const auto& [name, t] : {std::pair<const char*, const torch::Tensor&>{"obs_scale", os}, {"obs_offset", oo}, {"act_scale", as},
+                                {"act_offset", ao}})
+    check_tensor(t, path, name);
+  return {Normalizer::from_params(tensor_vec(os), tensor_vec(oo)), Normalizer::from_params(tensor_vec(as), tensor_vec(ao))};
+}
+
 }  // namespace dd

@@ -6,6 +6,7 @@
 
 #include <torch/torch.h>
 
+#include "core/normalizer.h"
 #include "core/types.h"
 
 namespace dd {
@@ -28,6 +29,14 @@ void check_module(const torch::nn::Module& module, const std::string& path, cons
 /// A vector as a 1-D float tensor (a copy) and back: normalisers in archives.
 torch::Tensor vec_tensor(const Vec& v);
 Vec tensor_vec(const torch::Tensor& t);
+
+/// A policy's or critic's two normalisers, as fields obs_scale, obs_offset, act_scale, act_offset.
+void write_normalizers(torch::serialize::OutputArchive& archive, const Normalizer& obs, const Normalizer& action);
+/// Reads write_normalizers()'s fields and checks them (check_tensor, and sizes obs_dim and
+/// action_dim: else Error "path: normaliser sizes (fields obs_scale, act_scale) do not match <owner>").
+/// Torch's own errors (a missing field) pass through as c10::Error for the caller's message.
+std::pair<Normalizer, Normalizer> read_normalizers(torch::serialize::InputArchive& archive, const std::string& path, int obs_dim,
+                                                   int action_dim, const std::string& owner);
 
 /// Writes `archive` to path + ".tmp" and renames it to `path`, so a failed save (a full disk) never
 /// clobbers a good file. Throws Error "path: could not write <what>: ..." on failure.
