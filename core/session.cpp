@@ -271,7 +271,9 @@ void DaggerSession::end_episode() {
   }
 }
 
-void DaggerSession::run_update(const ProgressFn& progress) {
+void DaggerSession::run_update(const ProgressFn& progress) { finish_update(compute_update(progress)); }
+
+UpdateReport DaggerSession::compute_update(const ProgressFn& progress) {
   emit({EventKind::kUpdateStarted});
   int last_percent = -1;
   const ProgressFn report_progress = [&](int done, int total, double value) {
@@ -284,8 +286,11 @@ void DaggerSession::run_update(const ProgressFn& progress) {
       emit(e);
     }
   };
-  const UpdateReport r = updates_ == 0 && !adopt_.empty() ? method_.adopt(adopt_, expert_data_, robot_data_)
-                                                           : method_.update(expert_data_, robot_data_, train_, report_progress);
+  return updates_ == 0 && !adopt_.empty() ? method_.adopt(adopt_, expert_data_, robot_data_)
+                                          : method_.update(expert_data_, robot_data_, train_, report_progress);
+}
+
+void DaggerSession::finish_update(const UpdateReport& r) {
   ++updates_;
   demos_at_last_update_ = expert_demos_;
   update_pending_ = false;

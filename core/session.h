@@ -97,8 +97,15 @@ class DaggerSession {
 
   /// Advances one control step, or runs a pending policy update. Returns false once done.
   bool tick();
-  /// Runs the pending policy update now (the console calls it from a worker thread).
+  /// Runs the pending policy update now: compute_update(), then finish_update().
   void run_update(const ProgressFn& progress = {});
+  /// The pending update's training and threshold, leaving the session as it was: the console runs it
+  /// on its worker thread while the frame thread keeps reading the session (nothing may change the
+  /// session until finish_update). Emits kUpdateStarted and kUpdateProgress.
+  UpdateReport compute_update(const ProgressFn& progress = {});
+  /// Records compute_update()'s report: counts the update, sets the gate's threshold, and emits
+  /// kUpdateFinished (and kDone when the session was finishing).
+  void finish_update(const UpdateReport& report);
   /// The first update adopts these checkpoints (Method::adopt: a policy trained elsewhere, e.g. one
   /// imported from diffusion_policy) instead of training; its threshold is still set on the initial
   /// demonstrations. Later updates train as usual. Call before the first update.

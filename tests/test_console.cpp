@@ -5,7 +5,10 @@
 // DD_UPDATE_GOLDENS=1 rewrites the goldens from this run (look at them before committing).
 #include <gtest/gtest.h>
 
+#include <atomic>
+#include <chrono>
 #include <cstdlib>
+#include <thread>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
@@ -15,6 +18,7 @@
 #include "core/dataset.h"
 #include "ui/console_app.h"
 #include "ui/image_io.h"
+#include "ui/worker.h"
 
 namespace dd::ui {
 namespace {
@@ -182,3 +186,36 @@ TEST(Console, MalformedScriptNamesTheFileAndTheField) {
 }
 
 }  // namespace dd::ui
+
+// The console's worker: a job's result is applied by collect() on the calling (frame) thread, only
+// after the job finished; a job that throws leaves its message and applies nothing.
+TEST(ConsoleWorker, ResultsAreAppliedOnTheFrameThreadAfterTheJob) {
+  dd::ui::Worker worker;
+  const std::thread::id frame_thread = std::this_thread::get_id();
+  std::thread::id applied_on;
+  int value = 0;
+  std::atomic<bool> release{false};
+  worker.start(dd::ui::WorkerJob::kField, [&](std::atomic<float>& progress) -> dd::ui::Worker::Apply {
+    progress = 0.5f;
+    while (!release) std::this_thread::sleep_for(std::chrono::milliseconds(1));
+    const int computed = 42;  // the worker's own local
+    return [&, computed] {
+      value = computed;
+      applied_on = std::this_thread::get_id();
+    };
+  });
+  EXPECT_TRUE(worker.busy());
+  EXPECT_EQ(worker.collect(), dd::ui::WorkerJob::kNone);  // still running: nothing applied
+  EXPECT_EQ(value, 0);
+  release = true;
+  EXPECT_EQ(worker.collect(/*wait=*/true), dd::ui::WorkerJob::kField);
+  EXPECT_EQ(value, 42);
+  EXPECT_EQ(applied_on, frame_thread);
+  EXPECT_FALSE(worker.busy());
+  EXPECT_FLOAT_EQ(worker.progress(), 0.5f);
+
+  worker.start(dd::ui::WorkerJob::kUpdate, [](std::atomic<float>&) -> dd::ui::Worker::Apply { throw dd::Error("training failed"); });
+  EXPECT_EQ(worker.collect(true), dd::ui::WorkerJob::kUpdate);
+  EXPECT_EQ(worker.error(), "training failed");
+  EXPECT_STREQ(dd::ui::to_string(dd::ui::WorkerJob::kUpdate), "policy update");
+}

@@ -26,6 +26,7 @@
 #include "envs/registry.h"
 #include "ui/mujoco_view.h"
 #include "ui/scene2d.h"
+#include "ui/worker.h"
 
 namespace dd::ui {
 namespace fs = std::filesystem;
@@ -175,18 +176,16 @@ struct Console::State {
   std::mutex mu;
   std::vector<SessionEvent> queue;
 
-  // the worker: policy updates and the loss field
-  std::thread worker;
-  std::atomic<bool> busy{false};
-  std::atomic<float> progress{0.f};
-  std::string busy_label, worker_error;
-  // a robot decision computed on the worker (windowed runs), handed to the session when ready
-  MethodDecision decision;
+  // the worker: policy updates, the loss field and (windowed runs) the robot's decisions; their
+  // results are applied here on the frame thread (ui/worker.h)
+  Worker worker;
+  MethodDecision decision;  // a decision the worker computed, handed to the session when ready
   double decision_s = 0;
   bool decision_ready = false;
   std::vector<int> deferred_keys;  // session keys pressed while a decision was being computed
-  bool updating() const { return busy && busy_label != "decision"; }
-  bool deciding() const { return busy && busy_label == "decision"; }
+  bool busy() const { return worker.busy(); }
+  bool updating() const { return worker.busy() && worker.job() != WorkerJob::kDecision; }
+  bool deciding() const { return worker.job() == WorkerJob::kDecision; }
 
   // what the views show
   std::deque<Decision> decisions;
@@ -335,7 +334,7 @@ int Console::operator_takeovers() const { return s_->takeovers; }
 bool Console::session_done() const { return s_->session->done(); }
 const std::string& Console::log_path() const { return s_->log->path(); }
 bool Console::quit() const { return s_->quitting; }
-bool Console::busy() const { return s_->busy; }
+bool Console::busy() const { return s_->busy(); }
 
 std::vector<std::string> Console::take_screenshot_requests() {
   std::vector<std::string> out;
@@ -369,9 +368,9 @@ void Console::shutdown() {
   State& s = *s_;
   if (s.shut) return;
   s.shut = true;
-  if (s.worker.joinable()) {
-    spdlog::info("console: waiting for the {} to finish", s.busy_label);
-    s.worker.join();
+  if (s.worker.busy()) {
+    spdlog::info("console: waiting for the {} to finish", to_string(s.worker.job()));
+    s.worker.collect(/*wait=*/true);
   }
   if (s.session->in_episode() && s.session->expert_acted()) {
     s.session->end_episode_now();  // its expert steps reach the data set
@@ -481,27 +480,14 @@ void drain(Console::State& s) {
   for (const auto& e : events) handle_event(s, e);
 }
 
-void start_worker(Console::State& s, const std::string& label, std::function<void()> job) {
-  if (s.worker.joinable()) s.worker.join();
-  s.busy_label = label;
-  s.progress = 0.f;
-  s.busy = true;
-  s.worker = std::thread([&s, job = std::move(job)] {
-    try {
-      job();
-    } catch (const std::exception& e) {
-      s.worker_error = e.what();
-    }
-    s.busy = false;
-  });
-}
-
 void start_update(Console::State& s) {
-  start_worker(s, "policy update", [&s] {
-    s.session->run_update([&s](int done, int total, double) { s.progress = total > 0 ? float(done) / total : 1.f; });
-    const std::string dir = s.o.out + "/checkpoints/update_" + std::to_string(s.session->updates());
+  const std::string dir = s.o.out + "/checkpoints/update_" + std::to_string(s.session->updates() + 1);
+  s.worker.start(WorkerJob::kUpdate, [&s, dir](std::atomic<float>& progress) -> Worker::Apply {
+    const UpdateReport report =
+        s.session->compute_update([&progress](int done, int total, double) { progress = total > 0 ? float(done) / total : 1.f; });
     fs::create_directories(dir);
     s.method->save(dir);
+    return [&s, report] { s.session->finish_update(report); };
   });
 }
 
@@ -509,25 +495,27 @@ void start_update(Console::State& s) {
 void start_field(Console::State& s) {
   if (!s.nav || s.session->updates() == 0) return;
   const Eigen::Vector2d center = s.nav->obstacle_center();
-  start_worker(s, "loss field", [&s, center] {
-    const int n = s.field_n;
-    const double half = s.nav->config().arena_half;
+  const int n = s.field_n, obs_dim = s.env->obs_dim();
+  const Nav2dEnv& nav = *s.nav;
+  Method& method = *s.method;
+  s.worker.start(WorkerJob::kField, [&s, &nav, &method, center, n, obs_dim](std::atomic<float>& progress) -> Worker::Apply {
+    const double half = nav.config().arena_half;
     std::vector<float> logs(static_cast<size_t>(n * n), NAN);
     for (int j = 0; j < n; ++j) {
       for (int i = 0; i < n; ++i) {
         const Eigen::Vector2d p(-half + (i + 0.5) * 2 * half / n, -half + (j + 0.5) * 2 * half / n);
-        if (!s.nav->is_free(p)) continue;
-        Vec obs = Vec::Zero(s.env->obs_dim());
+        if (!nav.is_free(p)) continue;
+        Vec obs = Vec::Zero(obs_dim);
         obs[0] = static_cast<float>(p.x());
         obs[1] = static_cast<float>(p.y());
         if (obs.size() >= 6) {
           obs[4] = static_cast<float>(center.x());
           obs[5] = static_cast<float>(center.y());
         }
-        const float score = s.method->decide(obs, 17 + static_cast<uint64_t>(j * n + i)).score;
+        const float score = method.decide(obs, 17 + static_cast<uint64_t>(j * n + i)).score;
         logs[static_cast<size_t>(j * n + i)] = std::log(std::max(score, 1e-12f));
       }
-      s.progress = float(j + 1) / n;
+      progress = float(j + 1) / n;
     }
     std::vector<float> finite;
     for (float v : logs)
@@ -535,8 +523,10 @@ void start_field(Console::State& s) {
     std::sort(finite.begin(), finite.end());
     const float lo = finite.empty() ? 0 : finite[finite.size() / 50], hi = finite.empty() ? 1 : finite[finite.size() * 49 / 50];
     for (float& v : logs) v = std::isfinite(v) ? std::clamp((v - lo) / std::max(hi - lo, 1e-6f), 0.f, 1.f) : 0.f;
-    s.field = std::move(logs);
-    s.field_valid = true;
+    return [&s, logs = std::move(logs)]() mutable {
+      s.field = std::move(logs);
+      s.field_valid = true;
+    };
   });
 }
 
@@ -576,7 +566,7 @@ void handle_key(Console::State& s, int key) {
     s.deferred_keys.push_back(key);
     return;
   }
-  const bool idle = !s.busy;
+  const bool idle = !s.busy();
   switch (key) {
     case GLFW_KEY_T: if (idle) take_over(s); break;
     case GLFW_KEY_E:
@@ -632,9 +622,8 @@ void handle_key(Console::State& s, int key) {
 
 // Steps the session as far as this frame allows.
 void advance(Console::State& s, double dt) {
-  if (!s.worker_error.empty()) return;
-  if (s.busy) return;
-  if (s.worker.joinable()) s.worker.join();
+  if (!s.worker.error().empty()) return;
+  if (s.busy()) return;
   if (s.session->done()) return;
   if (s.session->update_pending()) {
     start_update(s);
@@ -676,11 +665,16 @@ void advance(Console::State& s, double dt) {
         if (s.session->decision_due()) {
           const Vec obs = s.env->observation();
           const uint64_t seed = s.session->next_decision_seed();
-          start_worker(s, "decision", [&s, obs, seed] {
+          Method& method = *s.method;
+          s.worker.start(WorkerJob::kDecision, [&s, &method, obs, seed](std::atomic<float>&) -> Worker::Apply {
             const auto t = std::chrono::steady_clock::now();
-            s.decision = s.method->decide(obs, seed);
-            s.decision_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count();
-            s.decision_ready = true;
+            MethodDecision d = method.decide(obs, seed);
+            const double took = std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count();
+            return [&s, d = std::move(d), took]() mutable {
+              s.decision = std::move(d);
+              s.decision_s = took;
+              s.decision_ready = true;
+            };
           });
           break;
         }
@@ -784,7 +778,7 @@ void draw_mujoco(Console::State& s, ImVec2 origin, float side) {
   const bool hovered = ImGui::IsItemHovered();
   ImGuiIO& io = ImGui::GetIO();
   if (hovered && s.camera < 0) {
-    if (io.KeyShift && ImGui::IsMouseDown(ImGuiMouseButton_Left) && !s.busy) {
+    if (io.KeyShift && ImGui::IsMouseDown(ImGuiMouseButton_Left) && !s.busy()) {
       // Shift + drag: the operator's target follows the point under the mouse
       const ImVec2 m = ImGui::GetMousePos();
       double p[3];
@@ -835,7 +829,7 @@ void scene_view(Console::State& s, ImVec2 pos, ImVec2 size) {
     ImGui::Image(reinterpret_cast<ImTextureID>(static_cast<intptr_t>(s.scene->texture())), ImVec2(side, side), ImVec2(0, 1),
                  ImVec2(1, 0));
     // dragging a target takes over and steers
-    if (ImGui::IsItemHovered() && ImGui::IsMouseDown(ImGuiMouseButton_Left) && !s.busy) {
+    if (ImGui::IsItemHovered() && ImGui::IsMouseDown(ImGuiMouseButton_Left) && !s.busy()) {
       const ImVec2 m = ImGui::GetMousePos();
       const double k = s.scene->width() / double(side);
       s.drag_target = s.scene->pixel_to_world((m.x - origin.x) * k, (m.y - origin.y) * k);
@@ -899,11 +893,11 @@ void scene_view(Console::State& s, ImVec2 pos, ImVec2 size) {
     const ImVec2 a(origin.x + (side - w) * 0.5f, origin.y + 20), b(a.x + w, a.y + h);
     dl->AddRectFilled(a, b, IM_COL32(18, 22, 30, 225), 8.f);
     char line[96];
-    std::snprintf(line, sizeof line, "%s %d%%", s.busy_label == "policy update" ? "Updating the policy" : "Computing the loss field",
-                  static_cast<int>(s.progress * 100));
+    std::snprintf(line, sizeof line, "%s %d%%", s.worker.job() == WorkerJob::kUpdate ? "Updating the policy" : "Computing the loss field",
+                  static_cast<int>(s.worker.progress() * 100));
     dl->AddText(ImVec2(a.x + 14, a.y + 8), IM_COL32(230, 234, 240, 255), line);
     dl->AddRectFilled(ImVec2(a.x + 14, a.y + 32), ImVec2(b.x - 14, a.y + 42), IM_COL32(60, 66, 80, 255), 3.f);
-    dl->AddRectFilled(ImVec2(a.x + 14, a.y + 32), ImVec2(a.x + 14 + (w - 28) * s.progress, a.y + 42), IM_COL32(72, 132, 235, 255),
+    dl->AddRectFilled(ImVec2(a.x + 14, a.y + 32), ImVec2(a.x + 14 + (w - 28) * s.worker.progress(), a.y + 42), IM_COL32(72, 132, 235, 255),
                       3.f);
   } else if (s.operator_drives() && !s.o.scripted_operator) {
     const char* t = "You are driving: arrow keys, or drag the target.  H hands back to the robot.";
@@ -1080,10 +1074,10 @@ void session_view(Console::State& s, ImVec2 pos, ImVec2 size) {
   ImGui::Separator();
   if (s.updating()) {
     char label[64];
-    std::snprintf(label, sizeof label, "%s %d%%", s.busy_label.c_str(), static_cast<int>(s.progress * 100));
-    ImGui::ProgressBar(s.progress, ImVec2(-1, 0), label);
-  } else if (!s.worker_error.empty()) {
-    ImGui::TextColored(ImVec4(1, 0.4f, 0.4f, 1), "worker failed: %s", s.worker_error.c_str());
+    std::snprintf(label, sizeof label, "%s %d%%", to_string(s.worker.job()), static_cast<int>(s.worker.progress() * 100));
+    ImGui::ProgressBar(s.worker.progress(), ImVec2(-1, 0), label);
+  } else if (!s.worker.error().empty()) {
+    ImGui::TextColored(ImVec4(1, 0.4f, 0.4f, 1), "worker failed: %s", s.worker.error().c_str());
   } else if (!s.status.empty()) {
     ImGui::TextWrapped("%s", s.status.c_str());
   } else {
@@ -1168,6 +1162,7 @@ void close_dialog(Console::State& s) {
 
 void Console::frame(const FrameInput& in) {
   State& s = *s_;
+  s.worker.collect();  // a finished job's result, applied here on the frame thread
   s.frame_ms = 0.9 * s.frame_ms + 0.1 * in.dt * 1e3;
   if (s.frames++ > 0) {
     s.frame_sum += in.dt * 1e3;
@@ -1178,7 +1173,7 @@ void Console::frame(const FrameInput& in) {
       ++s.run_frames;
     }
   }
-  if (s.busy && s.busy_label == "policy update") {
+  if (s.worker.job() == WorkerJob::kUpdate) {
     s.busy_frame_sum += in.dt * 1e3;
     s.busy_frame_max = std::max(s.busy_frame_max, in.dt * 1e3);
     ++s.busy_frames;
@@ -1191,15 +1186,15 @@ void Console::frame(const FrameInput& in) {
   }
   s.jog = in.jog;
   s.lift = in.lift;
-  if ((s.jog.squaredNorm() > 0 || s.lift != 0) && !s.busy && !s.operator_drives() && !s.awaiting && s.session->in_episode() &&
+  if ((s.jog.squaredNorm() > 0 || s.lift != 0) && !s.busy() && !s.operator_drives() && !s.awaiting && s.session->in_episode() &&
       s.session->control() == Control::kRobot && !s.o.scripted_operator)
     take_over(s);  // driving is taking over
   advance(s, in.dt);
-  if (s.update_shot_due && !s.busy) {
+  if (s.update_shot_due && !s.busy()) {
     s.update_shot_due = false;
     s.request_shot("update");
   }
-  if (s.o.fixed_step && s.session->done() && !s.busy) s.quitting = true;
+  if (s.o.fixed_step && s.session->done() && !s.busy()) s.quitting = true;
 
   const ImVec2 size = ImGui::GetIO().DisplaySize;
   top_bar(s, size);
