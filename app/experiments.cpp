@@ -443,6 +443,7 @@ TrainRunResult run_train(const ExperimentConfig& preset_config, const TrainOptio
     if (o.threshold != "screened" && o.threshold != "both") throw Error("train: --threshold is screened or both, got '" + o.threshold + "'");
     policy.set_score_weights(config.method.score_raw_weights ? ScoreWeights::kRaw : ScoreWeights::kEma);
     policy.set_score_space(score_space_from(config.method.score_space));
+    policy.set_score_timesteps(config.method.score_timesteps);
     auto set = [&](bool screen) {
       ProgressBar bar(screen ? "threshold, screened" : "threshold, every pair at all rows", "loss");
       const auto t = std::chrono::steady_clock::now();

@@ -30,6 +30,7 @@ class DiffMethod : public Method {
   DiffMethod(const PolicyConfig& pc, const MethodConfig& mc, uint64_t seed) : policy_(pc, seed), config_(mc), seed_(seed) {
     policy_.set_score_weights(mc.score_raw_weights ? ScoreWeights::kRaw : ScoreWeights::kEma);
     policy_.set_score_space(score_space_from(mc.score_space));
+    policy_.set_score_timesteps(mc.score_timesteps);
     policy_.set_inference_precision(inference_precision_from(mc.precision));
   }
   std::string name() const override { return "diff"; }

@@ -34,6 +34,7 @@ struct MethodConfig {
   int calibration_pairs = 0;     // threshold over at most this many training pairs (0: all, the paper's rule)
   bool screen_threshold = true;  // diff: screen the pairs with 1/8 of the rows first (the same quantile, DiffusionPolicy::loss_quantile)
   bool score_raw_weights = false;  // diff: score the loss with the raw training weights instead of the EMA
+  int score_timesteps = 0;  // diff: the loss draws t from [0, this) only; 0: every timestep (the paper's)
   std::string score_space = "target";  // diff: the space the loss is scored in: target (the paper's) | epsilon | sample | v (DiffusionPolicy)
   std::string precision = "float32";  // inference arithmetic of every method's policies: float32 | bfloat16 (DiffusionPolicy)
   double risk_quantile = 0.01;   // thrifty: gamma is this quantile of Q on robot data

@@ -120,13 +120,14 @@ torch::Tensor DiffusionPolicy::Impl::expected_loss(const torch::Tensor& obs, con
 
 torch::Tensor DiffusionPolicy::Impl::row_losses(const torch::Tensor& obs, const torch::Tensor& chunks, int n_samples,
                                                 torch::Generator& gen) const {
-  return row_losses(obs, chunks, n_samples, gen, {score_space})[0];
+  return row_losses(obs, chunks, n_samples, gen, {score_space}, scored_timesteps())[0];
 }
 
 std::vector<torch::Tensor> DiffusionPolicy::Impl::row_losses(const torch::Tensor& obs, const torch::Tensor& chunks, int n_samples,
-                                                             torch::Generator& gen, const std::vector<ScoreSpace>& spaces) const {
+                                                             torch::Generator& gen, const std::vector<ScoreSpace>& spaces,
+                                                             int timesteps) const {
   torch::NoGradGuard no_grad;
-  const int64_t B = obs.size(0), n = n_samples, T = config.scheduler.num_train_timesteps;
+  const int64_t B = obs.size(0), n = n_samples, T = timesteps;
   // Condition each (pair, timestep) once: B * T rows instead of B * n.
   const torch::Tensor t_distinct = torch::arange(T, torch::kInt64).repeat({B});
   const torch::Tensor obs_distinct = obs.repeat_interleave(T, 0);
@@ -262,6 +263,7 @@ void DiffusionPolicy::reinitialize(uint64_t seed) {
   fresh->act_norm = impl_->act_norm;
   fresh->score_weights = impl_->score_weights;
   fresh->score_space = impl_->score_space;
+  fresh->score_timesteps = impl_->score_timesteps;
   fresh->precision = impl_->precision;
   fresh->torch_denoise = impl_->torch_denoise;
   impl_ = std::move(fresh);
@@ -287,6 +289,14 @@ InferencePrecision DiffusionPolicy::inference_precision() const { return impl_->
 ScoreWeights DiffusionPolicy::score_weights() const { return impl_->score_weights; }
 void DiffusionPolicy::set_score_space(ScoreSpace s) { impl_->score_space = s; }
 ScoreSpace DiffusionPolicy::score_space() const { return impl_->score_space; }
+
+void DiffusionPolicy::set_score_timesteps(int k) {
+  const int T = impl_->config.scheduler.num_train_timesteps;
+  if (k < 0 || k > T)
+    throw Error("score timesteps: " + std::to_string(k) + " is not between 0 (every timestep) and T_d = " + std::to_string(T));
+  impl_->score_timesteps = k == T ? 0 : k;
+}
+int DiffusionPolicy::score_timesteps() const { return impl_->scored_timesteps(); }
 
 ScoreSpace score_space_from(const std::string& name) {
   if (name == "target") return ScoreSpace::kTarget;
@@ -320,7 +330,7 @@ std::vector<std::vector<float>> DiffusionPolicy::loss_by_timestep(const Vec& obs
   // row i has timestep i mod T_d: the rows of timestep t are every T_d-th
   std::vector<std::vector<float>> out;
   for (const torch::Tensor& rows :
-       impl_->row_losses(impl_->obs_tensor(obs.transpose()), impl_->chunk_tensor(obs.transpose(), row), n_samples, gen, spaces)) {
+       impl_->row_losses(impl_->obs_tensor(obs.transpose()), impl_->chunk_tensor(obs.transpose(), row), n_samples, gen, spaces, config().scheduler.num_train_timesteps)) {
     const torch::Tensor l = rows.reshape({n_samples / T, T}).mean(0).contiguous();
     out.emplace_back(l.data_ptr<float>(), l.data_ptr<float>() + T);
   }
@@ -353,7 +363,7 @@ std::vector<float> DiffusionPolicy::expected_losses(const ChunkDataset& data, ui
 LossQuantile DiffusionPolicy::loss_quantile(const ChunkDataset& data, double alpha, uint64_t seed, int n_samples,
                                             bool screen, const ProgressFn& progress) const {
   if (data.size() == 0) throw Error("policy: no training pairs to set a threshold over");
-  const int T = config().scheduler.num_train_timesteps;
+  const int T = impl_->scored_timesteps();
   // Screening rows per pair: an eighth of n_samples, whole strata, at least two rows per timestep
   // (for the within-stratum variance); worth it only when that is at most a quarter of n_samples.
   const int m = std::max((n_samples / 8 + T - 1) / T, 2) * T;

@@ -88,6 +88,13 @@ class DiffusionPolicy {
   /// The space every expected loss of this policy is measured in (default: the training target's).
   void set_score_space(ScoreSpace s);
   ScoreSpace score_space() const;
+  /// The expected loss draws its timesteps from [0, k) instead of all T_d (the low-noise ones: their
+  /// loss separates out-of-distribution states from multi-modal in-distribution ones, where the
+  /// high-noise terms cost the spread between modes; results/fig2/low_noise_score.md). 0 or T_d:
+  /// every timestep (the paper's score). Throws Error outside [0, T_d]. score_timesteps() returns
+  /// the number drawn from.
+  void set_score_timesteps(int k);
+  int score_timesteps() const;
   /// Inference arithmetic for sample, decide and the expected losses (default float32). bfloat16
   /// throws Error in a build without oneDNN.
   void set_inference_precision(InferencePrecision p);

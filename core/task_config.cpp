@@ -77,7 +77,7 @@ void apply_dagger(const json& j, DaggerConfig& d) {
 
 void apply_method(const json& j, MethodConfig& m) {
   require_known_keys(j, {"alpha", "members", "loss_samples", "calibration_pairs", "screen_threshold", "score_weights", "risk_quantile",
-                         "critic_steps", "precision", "score_space"},
+                         "critic_steps", "precision", "score_space", "score_timesteps"},
                      "method");
   read(j, "alpha", m.alpha, "method");
   read(j, "members", m.members, "method");
@@ -86,6 +86,7 @@ void apply_method(const json& j, MethodConfig& m) {
   read(j, "screen_threshold", m.screen_threshold, "method");
   read(j, "risk_quantile", m.risk_quantile, "method");
   read(j, "critic_steps", m.critic.steps, "method");
+  read(j, "score_timesteps", m.score_timesteps, "method");
   if (j.contains("score_weights")) {
     std::string w;
     read(j, "score_weights", w, "method");
@@ -114,7 +115,7 @@ json method_json(const MethodConfig& m) {
   return json{{"alpha", m.alpha}, {"members", m.members}, {"loss_samples", m.loss_samples},
               {"calibration_pairs", m.calibration_pairs}, {"screen_threshold", m.screen_threshold},
               {"score_weights", m.score_raw_weights ? "raw" : "ema"}, {"risk_quantile", m.risk_quantile}, {"critic_steps", m.critic.steps},
-              {"precision", m.precision}, {"score_space", m.score_space}};
+              {"precision", m.precision}, {"score_space", m.score_space}, {"score_timesteps", m.score_timesteps}};
 }
 
 json dagger_json(const DaggerConfig& d) {
@@ -157,6 +158,9 @@ void ExperimentConfig::validate() const {
   if (!(method.alpha > 0 && method.alpha < 1)) throw Error("method.alpha: must be in (0, 1)");
   if (method.members < 2) throw Error("method.members: must be >= 2");
   if (method.loss_samples < 1) throw Error("method.loss_samples: must be >= 1");
+  if (method.score_timesteps < 0 || method.score_timesteps > policy.scheduler.num_train_timesteps)
+    throw Error("method.score_timesteps: " + std::to_string(method.score_timesteps) + " is not between 0 (every timestep) and " +
+                "policy.scheduler.num_train_timesteps (" + std::to_string(policy.scheduler.num_train_timesteps) + ")");
   if (rq1_demos < 1) throw Error("rq1_demos: must be >= 1");
 }
 

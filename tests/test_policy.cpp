@@ -130,6 +130,40 @@ TEST_F(BimodalPolicy, LossByTimestepAveragesToTheExpectedLossAndConvertsBetweenS
   EXPECT_THROW(policy_->loss_by_timestep(obs, chunk, 7, T + 1), Error);
 }
 
+// The score restricted to the low-noise timesteps [0, K): it estimates the mean of the per-timestep
+// losses below K; K = T_d is the full score, number for number; K outside [0, T_d] is refused.
+TEST_F(BimodalPolicy, TheScoreRestrictedToLowNoiseTimestepsAveragesThoseTimesteps) {
+  const Vec obs = data_->obs.row(5).transpose();
+  const Mat chunk = data_->chunk(5);
+  const int T = policy_->config().scheduler.num_train_timesteps;
+  ASSERT_GE(T, 8);
+  const float full = policy_->expected_loss(obs, chunk, 7, 8 * T);
+  policy_->set_score_timesteps(T);
+  EXPECT_FLOAT_EQ(policy_->expected_loss(obs, chunk, 7, 8 * T), full);
+  EXPECT_EQ(policy_->score_timesteps(), T);
+
+  const std::vector<float> by_t = policy_->loss_by_timestep(obs, chunk, 3, 128 * T);
+  const int K = T / 4;
+  const double low = std::accumulate(by_t.begin(), by_t.begin() + K, 0.0) / K;
+  const double all = std::accumulate(by_t.begin(), by_t.end(), 0.0) / T;
+  policy_->set_score_timesteps(K);
+  EXPECT_EQ(policy_->score_timesteps(), K);
+  const float restricted = policy_->expected_loss(obs, chunk, 11, 512 * K);
+  EXPECT_NEAR(restricted, low, 0.1 * low) << "all timesteps: " << all;
+  ASSERT_GT(std::abs(all - low), 0.25 * low) << "the check needs low-noise losses unlike the mean of all";
+  // the threshold over training pairs uses the same restricted score, screened or not
+  ChunkDataset few = *data_;
+  few.obs = data_->obs.topRows(24);
+  few.chunks = data_->chunks.topRows(24);
+  const LossQuantile q = policy_->loss_quantile(few, 0.9, 5, 16 * K, /*screen=*/true);
+  EXPECT_TRUE(std::isfinite(q.threshold) && q.threshold > 0);
+  policy_->set_score_timesteps(0);
+  EXPECT_EQ(policy_->score_timesteps(), T);
+  EXPECT_FLOAT_EQ(policy_->expected_loss(obs, chunk, 7, 8 * T), full);
+  EXPECT_THROW(policy_->set_score_timesteps(T + 1), Error);
+  EXPECT_THROW(policy_->set_score_timesteps(-1), Error);
+}
+
 TEST_F(BimodalPolicy, BatchedLossesMatchOneByOne) {
   ChunkDataset few = *data_;
   few.obs = data_->obs.topRows(10);

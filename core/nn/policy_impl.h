@@ -24,6 +24,9 @@ struct DiffusionPolicy::Impl {
   mutable nn::ConditionalUnet1D ema{nullptr};
   ScoreWeights score_weights = ScoreWeights::kEma;
   ScoreSpace score_space = ScoreSpace::kTarget;
+  int score_timesteps = 0;  // the score draws t from [0, this); 0: every timestep (set_score_timesteps)
+  /// The number of timesteps the score draws from: score_timesteps, or T_d when it is 0.
+  int scored_timesteps() const { return score_timesteps > 0 ? score_timesteps : config.scheduler.num_train_timesteps; }
   /// The network that scores the expected loss (a handle sharing the module).
   nn::ConditionalUnet1D scorer() const { return score_weights == ScoreWeights::kRaw ? model : ema; }
   nn::NoiseScheduler scheduler;
@@ -43,12 +46,13 @@ struct DiffusionPolicy::Impl {
   /// Expected loss for B pairs: obs (B, obs_dim) and chunks (B, T_p, A), both normalised -> (B).
   torch::Tensor expected_loss(const torch::Tensor& obs, const torch::Tensor& chunks, int n_samples,
                               torch::Generator& gen) const;
-  /// The same rows' losses one by one: (B, n_samples), row i at timestep i mod T_d.
+  /// The same rows' losses one by one: (B, n_samples), row i at timestep i mod K (K: scored_timesteps()).
   torch::Tensor row_losses(const torch::Tensor& obs, const torch::Tensor& chunks, int n_samples,
                            torch::Generator& gen) const;
-  /// The same rows scored in each of `spaces` from one pass of the network (the same noise).
+  /// The same rows scored in each of `spaces` from one pass of the network (the same noise), row i at
+  /// timestep i mod `timesteps`.
   std::vector<torch::Tensor> row_losses(const torch::Tensor& obs, const torch::Tensor& chunks, int n_samples,
-                                        torch::Generator& gen, const std::vector<ScoreSpace>& spaces) const;
+                                        torch::Generator& gen, const std::vector<ScoreSpace>& spaces, int timesteps) const;
   /// Reverse diffusion from noise for normalised obs (B, obs_dim) -> normalised chunks (B, T_p, A).
   /// The conditioning of every (row, timestep) is computed in one pass before the denoising loop.
   torch::Tensor sample(const torch::Tensor& obs, torch::Generator& gen) const;
