@@ -39,13 +39,15 @@ TEST(Demo2d, SeedsWriteEveryFileAndASummaryOverThem) {
     EXPECT_EQ(line, "seed,space,ensemble_mm_over_um,loss_ood_over_mm,loss_ood_over_um,claim");
     std::set<std::string> rows;
     while (std::getline(seeds_csv, line)) rows.insert(line.substr(0, line.find(',', line.find(',') + 1)));
-    EXPECT_EQ(rows, (std::set<std::string>{"0,epsilon", "0,v", "0,sample", "1,epsilon", "1,v", "1,sample"}));
+    EXPECT_EQ(rows, (std::set<std::string>{"0,epsilon", "0,v", "0,sample", "0,epsilon_low", "0,v_low", "0,sample_low", "1,epsilon",
+                                           "1,v", "1,sample", "1,epsilon_low", "1,v_low", "1,sample_low"}));
   }
   const Demo2dResult& r = results[0];
   Demo2dOptions o = base;
   o.out = base.out + "/seed_0";
   for (const char* group : {"id_um", "id_mm", "ood", "along_2", "along_4", "along_8"})
-    for (const char* measure : {"ensemble_std", "loss_target", "loss_epsilon", "loss_v", "loss_sample"})
+    for (const char* measure : {"ensemble_std", "loss_target", "loss_epsilon", "loss_v", "loss_sample", "loss_epsilon_low", "loss_v_low",
+                                "loss_sample_low"})
       EXPECT_GT(r.means.count(std::string(measure) + "/" + group), 0u) << measure << "/" << group;
   // the same states scored differently per seed: the two runs are not copies of each other
   EXPECT_NE(results[0].means.at("loss_target/ood"), results[1].means.at("loss_target/ood"));
@@ -73,14 +75,14 @@ TEST(Demo2d, SeedsWriteEveryFileAndASummaryOverThem) {
     EXPECT_EQ(rows.size(), 3u);
     for (const auto& [space, n] : rows) EXPECT_EQ(n, 3 * 16) << space;  // 3 regions x T_d
   }
-  {  // along the paths: 6 groups x (ensemble + 3 spaces)
+  {  // along the paths: 6 groups x (ensemble + 3 spaces, over all timesteps and over the low-noise quarter)
     std::ifstream a_csv(o.out + "/fig2_along_paths.csv");
     std::string line;
     std::getline(a_csv, line);
     EXPECT_EQ(line, "group,steps_along,measure,mean,std,n");
     int rows = 0;
     while (std::getline(a_csv, line)) ++rows;
-    EXPECT_EQ(rows, 6 * 4);
+    EXPECT_EQ(rows, 6 * 7);
   }
 
   std::ifstream csv(o.out + "/fig2_regions.csv");
