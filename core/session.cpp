@@ -120,7 +120,7 @@ bool DaggerSession::tick() {
   obs_.push_back(obs);
   actions_.push_back(action);
   flags_.push_back(robot ? 0 : 1);
-  actors_.push_back(static_cast<uint8_t>(operator_answering_ && control_ == Control::kExpertQuery ? Control::kOperator : control_));
+  actors_.push_back(static_cast<uint8_t>(actor()));
   if (env_.step(action).done) end_episode();
   return !done_;
 }

@@ -122,6 +122,9 @@ class DaggerSession {
   /// with the actor label "operator" (the console routes the actions; control stays kExpertQuery).
   /// False unless a query is being answered.
   bool operator_answers_query();
+  /// Who acts in this step: control(), except kOperator while the operator answers a query (what the
+  /// data set's actor label records and what a display should show).
+  Control actor() const { return operator_answering_ && control_ == Control::kExpertQuery ? Control::kOperator : control_; }
   /// Starts the next episode now if one is due (no update pending, not done); tick() would start it
   /// itself. Returns whether an episode is in progress. Lets a caller see the first decision coming.
   bool prepare();

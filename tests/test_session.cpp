@@ -274,7 +274,13 @@ TEST(Session, RecordsWhoActedAtEveryStep) {
   EXPECT_FALSE(s2.operator_answers_query());  // no query yet
   bool answered = false;
   s2.add_observer([&](const SessionEvent& e) {
-    if (e.kind == EventKind::kTakeover && e.control == Control::kExpertQuery) answered = s2.operator_answers_query();
+    if (e.kind == EventKind::kTakeover && e.control == Control::kExpertQuery) {
+      EXPECT_EQ(s2.actor(), Control::kExpertQuery);
+      answered = s2.operator_answers_query();
+      // control stays the query's; the one acting, shown and recorded, is the operator
+      EXPECT_EQ(s2.control(), Control::kExpertQuery);
+      EXPECT_EQ(s2.actor(), Control::kOperator);
+    }
   });
   run_to_end(s2);
   EXPECT_TRUE(answered);

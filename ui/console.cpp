@@ -549,6 +549,7 @@ void answer_as_operator(Console::State& s) {
   s.takeover_steps = 0;
   s.operator_countdown = -1;
   s.session->operator_answers_query();  // the data set labels these steps the operator's
+  ++s.takeovers;                         // and the console shows and counts them as the operator's
   s.log->note("operator_answers", "episode " + std::to_string(s.session->episode()));
 }
 
@@ -681,7 +682,7 @@ void advance(Console::State& s, double dt) {
       }
     }
     s.session->tick();
-    const Control used = s.session->control();  // who acted in this step
+    const Control used = s.session->actor();  // who acted in this step (the operator when answering a query)
     drain(s);
     if (s.nav) s.path.emplace_back(s.nav->position(), used);
     if (!s.timelines.empty() && s.timelines.back().episode == s.session->episode()) s.timelines.back().steps.push_back(used);
@@ -737,7 +738,7 @@ void draw_nav2d(Console::State& s, ImVec2 size) {
     sc.stroke({p, t}, 1.5, to_rgba(control_color(Control::kOperator), 0.8f));
     sc.ring(t, 0.035, 2.0, to_rgba(control_color(Control::kOperator)));
   }
-  const Control now = s.session->in_episode() ? s.session->control() : s.path.empty() ? Control::kRobot : s.path.back().second;
+  const Control now = s.session->in_episode() ? s.session->actor() : s.path.empty() ? Control::kRobot : s.path.back().second;
   sc.disc(s.nav->position(), c.agent_radius + 0.012, {1, 1, 1, 0.9f});
   sc.disc(s.nav->position(), c.agent_radius, to_rgba(control_color(now)));
   sc.render();
@@ -1105,7 +1106,7 @@ void top_bar(Console::State& s, ImVec2 size) {
   ImGui::TextUnformatted(s.o.method.c_str());
   ImGui::SameLine(0, 24);
   // the control-mode pill
-  const Control c = s.session->in_episode() ? s.session->control() : Control::kRobot;
+  const Control c = s.session->in_episode() ? s.session->actor() : Control::kRobot;
   std::string mode = s.session->done() ? "done" : s.updating() ? "updating" : s.awaiting ? "WAITING FOR THE OPERATOR" : control_label(c);
   if (s.paused && !s.session->done()) mode += " (paused)";
   const ImVec2 ts = ImGui::CalcTextSize(mode.c_str());
