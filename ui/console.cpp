@@ -1126,11 +1126,18 @@ void help_overlay(Console::State& s, ImVec2 size) {
   ImGui::SetNextWindowPos(ImVec2(size.x * 0.5f, size.y * 0.5f), 0, ImVec2(0.5f, 0.5f));
   ImGui::SetNextWindowBgAlpha(0.96f);
   ImGui::Begin("Keys", &s.show_help, ImGuiWindowFlags_AlwaysAutoResize | ImGuiWindowFlags_NoSavedSettings | ImGuiWindowFlags_NoCollapse);
-  for (const auto& [k, what] : console_keys()) {
+  // the key column as wide as its widest entry (in the bold font it is drawn in), plus a gap
+  const auto keys = console_keys();
+  if (g_bold) ImGui::PushFont(g_bold);
+  float key_width = 0;
+  for (const auto& [k, what] : keys) key_width = std::max(key_width, ImGui::CalcTextSize(k.c_str()).x);
+  if (g_bold) ImGui::PopFont();
+  const float description_x = ImGui::GetCursorPosX() + key_width + 2 * ImGui::GetStyle().ItemSpacing.x + 8;
+  for (const auto& [k, what] : keys) {
     if (g_bold) ImGui::PushFont(g_bold);
     ImGui::TextUnformatted(k.c_str());
     if (g_bold) ImGui::PopFont();
-    ImGui::SameLine(170);
+    ImGui::SameLine(description_x);
     ImGui::TextUnformatted(what.c_str());
   }
   ImGui::Separator();
