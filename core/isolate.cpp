@@ -163,6 +163,9 @@ std::vector<std::string> run_in_children(int n, int concurrent, const std::strin
       ::close(fds[0]);
       for (const Child& c : running) ::close(c.fd);
       child_setup();
+      // Below the parent: more children than cores share them, and the parent's own threads (the
+      // console's frames, a simulator) keep the priority they had.
+      [[maybe_unused]] const int niceness = ::nice(4);
       const int fd = fds[1];
       const ReportFn report = [fd](const std::string& message) { write_frame(fd, 'M', message); };
       bool sent = false;

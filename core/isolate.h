@@ -36,6 +36,7 @@ using ReportFn = std::function<void(const std::string& message)>;
 /// processes run at nearly twice the speed. `on_report(i, message)` receives job i's messages on the
 /// calling thread as they arrive. When a job throws, or a child dies, the other children are killed
 /// and Error("<what>: job i: ...") is thrown. Same rules for `job` as for read_in_child's `read`.
+/// The children run at a lower priority (nice +4) than the caller.
 std::vector<std::string> run_in_children(int n, int concurrent, const std::string& what,
                                          const std::function<std::string(int, const ReportFn&)>& job,
                                          const std::function<void(int, const std::string&)>& on_report = {});
