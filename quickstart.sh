@@ -7,6 +7,7 @@
 #   ./quickstart.sh bench [ARGS...]  the Google Benchmark programs
 #   ./quickstart.sh sanitize [ARGS]  the test suite built with AddressSanitizer and UBSan (build-asan/)
 #   ./quickstart.sh fuzz [SECONDS]   the libFuzzer harnesses of the file loaders (clang; build-fuzz/)
+#   ./quickstart.sh tsan             the console's and the session's tests under ThreadSanitizer (build-tsan/)
 #
 # Debian 12 packages only; nothing is downloaded at build or run time. Needs root or sudo the
 # first time (to install packages); says nothing about packages when all are present.
@@ -102,13 +103,17 @@ case "$cmd" in
     install_missing
     tests/fuzz/run.sh "$@"
     ;;
+  tsan)
+    install_missing
+    tests/tsan.sh
+    ;;
   bench)
     install_missing
     configure_and_build
     for b in "$BUILD_DIR"/tests/bench/bench_*; do [[ -x $b ]] && "$b" "$@"; done
     ;;
   *)
-    sed -n '2,12p' "$0" | sed 's/^# \{0,1\}//'
+    sed -n '2,13p' "$0" | sed 's/^# \{0,1\}//'
     exit 2
     ;;
 esac

@@ -13,7 +13,14 @@
 namespace dd::nn {
 
 // Branch-free, so the compiler vectorises it; one clone per instruction set, chosen at load time.
-__attribute__((target_clones("avx512f", "avx2", "default"))) void to_bf16(const float* src, int64_t n, uint16_t* dst) {
+// One clone per instruction set, chosen at load time by an ifunc resolver. Not under ThreadSanitizer:
+// it instruments the resolver, which runs before its runtime has started (a crash at load).
+#if defined(__SANITIZE_THREAD__)
+#define DD_TARGET_CLONES
+#else
+#define DD_TARGET_CLONES __attribute__((target_clones("avx512f", "avx2", "default")))
+#endif
+DD_TARGET_CLONES void to_bf16(const float* src, int64_t n, uint16_t* dst) {
   for (int64_t i = 0; i < n; ++i) {
     uint32_t u;
     std::memcpy(&u, &src[i], 4);
