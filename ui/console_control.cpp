@@ -1,0 +1,343 @@
+// The controller: session events, keys, the operator's actions and the worker's jobs, all on the
+// frame thread. The only code that changes the session (the worker computes an update's report; its
+// result is applied here, ui/worker.h).
+#include <GLFW/glfw3.h>  // key codes only (ImGui 1.86 indexes keys by GLFW code); no window calls here
+#include <spdlog/spdlog.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <filesystem>
+
+#include "envs/mujoco/pick_place_expert.h"
+#include "ui/console_state.h"
+
+namespace dd::ui::console {
+namespace fs = std::filesystem;
+
+void handle_event(Console::State& s, const SessionEvent& e) {
+  (*s.log)(e);
+  switch (e.kind) {
+    case EventKind::kEpisodeStart:
+      s.timelines.push_back({e.episode, {}, false, false});
+      while (s.timelines.size() > 64) s.timelines.pop_front();
+      s.path.clear();
+      s.answering = Console::State::Answer::kNobody;
+      s.awaiting = false;
+      s.dragging = false;
+      break;
+    case EventKind::kDecision:
+      s.decisions.push_back({s.decision_count++, e.episode, e.score, e.threshold, e.violation, e.run, e.risk_q});
+      while (s.decisions.size() > 400) s.decisions.pop_front();
+      s.last_decision_ms = e.inference_s * 1e3;
+      break;
+    case EventKind::kQuery:
+      ++s.queries;
+      if (s.o.pause_on_query) {
+        s.awaiting = true;
+        s.answering = Console::State::Answer::kNobody;
+        if (s.o.scripted_operator) s.operator_countdown = s.o.operator_delay;
+      } else {
+        s.answering = Console::State::Answer::kScripted;
+      }
+      s.request_shot("query");
+      break;
+    case EventKind::kTakeover:
+      if (e.control == Control::kOperator) {
+        ++s.takeovers;
+        s.op_valid = false;
+        s.answering = Console::State::Answer::kOperator;
+        s.takeover_steps = 0;
+      } else if (e.control == Control::kExpertTimeout) {
+        ++s.timeouts;
+        s.answering = Console::State::Answer::kScripted;
+      }
+      break;
+    case EventKind::kHandBack:
+      s.answering = Console::State::Answer::kNobody;
+      s.awaiting = false;
+      s.dragging = false;
+      break;
+    case EventKind::kEpisodeEnd:
+      if (!s.timelines.empty()) {
+        s.timelines.back().ended = true;
+        s.timelines.back().success = e.success;
+      }
+      if (e.control == Control::kRobot && !s.session->expert_acted()) {
+        ++s.robot_episodes;
+        if (e.success) ++s.robot_successes;
+      }
+      s.awaiting = false;
+      if (s.takeover_steps >= 0) s.request_shot("takeover");
+      s.takeover_steps = -1;
+      break;
+    case EventKind::kUpdateFinished:
+      s.last_report = e.report;
+      s.field_valid = false;
+      s.update_shot_due = true;  // taken once the worker is idle (the checkpoint is written)
+      break;
+    case EventKind::kDone: s.status = "done: N_f expert demonstrations reached"; break;
+    default: break;
+  }
+}
+
+void drain(Console::State& s) {
+  std::vector<SessionEvent> events;
+  {
+    std::lock_guard<std::mutex> lock(s.mu);
+    events.swap(s.queue);
+  }
+  for (const auto& e : events) handle_event(s, e);
+}
+
+void start_update(Console::State& s) {
+  const std::string dir = s.o.out + "/checkpoints/update_" + std::to_string(s.session->updates() + 1);
+  s.worker.start(WorkerJob::kUpdate, [&s, dir](std::atomic<float>& progress) -> Worker::Apply {
+    const UpdateReport report =
+        s.session->compute_update([&progress](int done, int total, double) { progress = total > 0 ? float(done) / total : 1.f; });
+    fs::create_directories(dir);
+    s.method->save(dir);
+    return [&s, report] { s.session->finish_update(report); };
+  });
+}
+
+// The method's score over a grid of positions at rest (the obstacle where it is this episode).
+void start_field(Console::State& s) {
+  if (!s.nav || s.session->updates() == 0) return;
+  const Eigen::Vector2d center = s.nav->obstacle_center();
+  const int n = s.field_n, obs_dim = s.env->obs_dim();
+  const Nav2dEnv& nav = *s.nav;
+  Method& method = *s.method;
+  s.worker.start(WorkerJob::kField, [&s, &nav, &method, center, n, obs_dim](std::atomic<float>& progress) -> Worker::Apply {
+    const double half = nav.config().arena_half;
+    std::vector<float> logs(static_cast<size_t>(n * n), NAN);
+    for (int j = 0; j < n; ++j) {
+      for (int i = 0; i < n; ++i) {
+        const Eigen::Vector2d p(-half + (i + 0.5) * 2 * half / n, -half + (j + 0.5) * 2 * half / n);
+        if (!nav.is_free(p)) continue;
+        Vec obs = Vec::Zero(obs_dim);
+        obs[0] = static_cast<float>(p.x());
+        obs[1] = static_cast<float>(p.y());
+        if (obs.size() >= 6) {
+          obs[4] = static_cast<float>(center.x());
+          obs[5] = static_cast<float>(center.y());
+        }
+        const float score = method.decide(obs, 17 + static_cast<uint64_t>(j * n + i)).score;
+        logs[static_cast<size_t>(j * n + i)] = std::log(std::max(score, 1e-12f));
+      }
+      progress = float(j + 1) / n;
+    }
+    std::vector<float> finite;
+    for (float v : logs)
+      if (std::isfinite(v)) finite.push_back(v);
+    std::sort(finite.begin(), finite.end());
+    const float lo = finite.empty() ? 0 : finite[finite.size() / 50], hi = finite.empty() ? 1 : finite[finite.size() * 49 / 50];
+    for (float& v : logs) v = std::isfinite(v) ? std::clamp((v - lo) / std::max(hi - lo, 1e-6f), 0.f, 1.f) : 0.f;
+    return [&s, logs = std::move(logs)]() mutable {
+      s.field = std::move(logs);
+      s.field_valid = true;
+    };
+  });
+}
+
+void save_policy(Console::State& s) {
+  if (s.session->updates() == 0) {
+    s.status = "nothing to save yet: the policy has not been trained";
+    return;
+  }
+  const std::string dir = s.o.out + "/checkpoints/manual_" + std::to_string(++s.saves);
+  fs::create_directories(dir);
+  s.method->save(dir);
+  s.log->note("save", dir);
+  s.status = "saved the policy to " + dir;
+}
+
+void answer_as_operator(Console::State& s) {
+  s.answering = Console::State::Answer::kOperator;
+  s.op_valid = false;
+  s.awaiting = false;
+  s.takeover_steps = 0;
+  s.operator_countdown = -1;
+  s.session->operator_answers_query();  // the data set labels these steps the operator's
+  ++s.takeovers;                         // and the console shows and counts them as the operator's
+  s.log->note("operator_answers", "episode " + std::to_string(s.session->episode()));
+}
+
+void take_over(Console::State& s) {
+  if (s.awaiting) {
+    answer_as_operator(s);
+  } else if (s.session->take_over()) {
+    drain(s);
+  }
+}
+
+void handle_key(Console::State& s, int key) {
+  const bool session_key = key == GLFW_KEY_T || key == GLFW_KEY_H || key == GLFW_KEY_R || key == GLFW_KEY_S || key == GLFW_KEY_E;
+  if (s.deciding() && session_key) {  // acted on as soon as the decision is in
+    s.deferred_keys.push_back(key);
+    return;
+  }
+  const bool idle = !s.busy();
+  switch (key) {
+    case GLFW_KEY_T: if (idle) take_over(s); break;
+    case GLFW_KEY_E:
+      if (s.awaiting) {
+        s.answering = Console::State::Answer::kScripted;
+        s.awaiting = false;
+        s.log->note("scripted_expert_answers", "episode " + std::to_string(s.session->episode()));
+      }
+      break;
+    case GLFW_KEY_H:
+      if (idle && s.session->hand_back()) drain(s);
+      break;
+    case GLFW_KEY_SPACE: s.paused = !s.paused; break;
+    case GLFW_KEY_N: s.paused = true; s.step_once = true; break;
+    case GLFW_KEY_R:
+      if (idle && s.session->in_episode()) {
+        s.session->end_episode_now();
+        s.log->note("reset", "episode " + std::to_string(s.session->episode()));
+        drain(s);
+      }
+      break;
+    case GLFW_KEY_S: if (idle) save_policy(s); break;
+    case GLFW_KEY_G: s.op_grip = s.op_grip > 0.5 ? 0.0 : 1.0; break;
+    case GLFW_KEY_C:
+      if (s.arm) {
+        const int n = s.arm->model()->ncam;
+        s.camera = s.camera + 1 >= n ? -1 : s.camera + 1;
+      }
+      break;
+    case GLFW_KEY_F:
+      s.show_field = !s.show_field;
+      if (s.show_field && !s.field_valid) s.field_wanted = true;
+      break;
+    case GLFW_KEY_EQUAL: case GLFW_KEY_KP_ADD: s.o.speed = std::min(s.o.speed * 2, 16.0); break;
+    case GLFW_KEY_MINUS: case GLFW_KEY_KP_SUBTRACT: s.o.speed = std::max(s.o.speed / 2, 0.125); break;
+    case GLFW_KEY_F1: case GLFW_KEY_SLASH: s.show_help = !s.show_help; break;
+    case GLFW_KEY_F12: s.shots.push_back("screenshot_" + std::to_string(++s.screenshot_count)); break;
+    case GLFW_KEY_ENTER: case GLFW_KEY_KP_ENTER:
+      if (s.close_dialog) {
+        s.close_dialog = false;
+        s.quitting = true;
+      }
+      break;
+    case GLFW_KEY_ESCAPE:
+      if (s.close_dialog) s.close_dialog = false;
+      else if (s.show_help) s.show_help = false;
+      else if (s.session->in_episode() && s.session->expert_acted()) s.close_dialog = true;
+      else s.quitting = true;
+      break;
+    default: break;
+  }
+}
+
+// Steps the session as far as this frame allows.
+void advance(Console::State& s, double dt) {
+  if (!s.worker.error().empty()) return;
+  if (s.busy()) return;
+  if (s.session->done()) return;
+  if (s.session->update_pending()) {
+    start_update(s);
+    return;
+  }
+  if (s.field_wanted) {
+    s.field_wanted = false;
+    start_field(s);
+    return;
+  }
+  if (s.awaiting) {
+    if (s.operator_countdown > 0 && --s.operator_countdown == 0) answer_as_operator(s);
+    return;
+  }
+  int ticks = 0;
+  if (s.paused) {
+    ticks = s.step_once ? 1 : 0;
+    s.step_once = false;
+  } else if (s.o.fixed_step) {
+    ticks = 1;
+  } else {
+    s.tick_budget = std::min(s.tick_budget + dt * s.env->control_hz() * s.o.speed, 8.0);
+    ticks = static_cast<int>(s.tick_budget);
+    s.tick_budget -= ticks;
+  }
+  for (int i = 0; i < ticks; ++i) {
+    if (!s.o.fixed_step) {
+      // the robot's decisions run on the worker so that the window keeps drawing (headless runs
+      // decide inline: same results, one frame per step)
+      if (s.decision_ready) {
+        s.decision_ready = false;
+        std::vector<int> keys;
+        keys.swap(s.deferred_keys);
+        for (int k : keys) handle_key(s, k);
+        if (s.session->decision_due()) s.session->provide_decision(std::move(s.decision), s.decision_s);
+      } else {
+        s.session->prepare();
+        drain(s);
+        if (s.session->decision_due()) {
+          const Vec obs = s.env->observation();
+          const uint64_t seed = s.session->next_decision_seed();
+          Method& method = *s.method;
+          s.worker.start(WorkerJob::kDecision, [&s, &method, obs, seed](std::atomic<float>&) -> Worker::Apply {
+            const auto t = std::chrono::steady_clock::now();
+            MethodDecision d = method.decide(obs, seed);
+            const double took = std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count();
+            return [&s, d = std::move(d), took]() mutable {
+              s.decision = std::move(d);
+              s.decision_s = took;
+              s.decision_ready = true;
+            };
+          });
+          break;
+        }
+      }
+    }
+    s.session->tick();
+    const Control used = s.session->actor();  // who acted in this step (the operator when answering a query)
+    drain(s);
+    if (s.nav) s.path.emplace_back(s.nav->position(), used);
+    if (!s.timelines.empty() && s.timelines.back().episode == s.session->episode()) s.timelines.back().steps.push_back(used);
+    if (s.takeover_steps >= 0 && ++s.takeover_steps == 20) s.request_shot("takeover");
+    if (s.session->update_pending() || s.awaiting || s.session->done()) break;
+  }
+}
+
+
+// The operator drives an arm task: a TCP target that the arrow keys move in the camera's ground
+// plane, PageUp/PageDown raise and lower, Shift+drag places; G toggles the gripper.
+Vec arm_operator_action(Console::State& s) {
+  const mj::ArmEnv& env = *s.arm;
+  const Eigen::Vector3d tcp = env.arm().tcp_pos(env.data());
+  if (!s.op_valid) {
+    s.op_target = tcp;
+    s.op_yaw = mj::tool_yaw(env.arm().tcp_rot(env.data()));
+    s.op_grip = env.arm().opening(env.data()) < 0.06 ? 1.0 : 0.0;
+    s.op_valid = true;
+  }
+  if (!s.dragging) {
+    Eigen::Vector2d fwd(1, 0);
+    if (s.camera < 0) {
+      const double az = s.free_cam.azimuth * M_PI / 180;
+      fwd = Eigen::Vector2d(std::cos(az), std::sin(az));
+    }
+    const Eigen::Vector2d right(fwd.y(), -fwd.x());
+    const Eigen::Vector2d d = (fwd * s.jog.y() + right * s.jog.x()) * 0.01;
+    s.op_target += Eigen::Vector3d(d.x(), d.y(), 0.01 * s.lift);
+  } else {
+    s.op_target.head<2>() = s.drag_target;
+  }
+  s.op_target.z() = std::clamp(s.op_target.z(), 0.0, 0.5);
+  if ((s.op_target - tcp).norm() > 0.08) s.op_target = tcp + (s.op_target - tcp).normalized() * 0.08;  // stay reachable
+  const Eigen::Matrix3d R = mj::tool_down(s.op_yaw);
+  if (env.control() == mj::ArmControl::kEndEffectorPose) {
+    Vec a(10);
+    a.head<3>() = s.op_target.cast<float>();
+    a.segment<6>(3) = mj::rot6d(R).cast<float>();
+    a[9] = static_cast<float>(s.op_grip);
+    return a;
+  }
+  const mj::Vec7 dq = (env.ik_targets(s.op_target, R) - env.arm().q(env.data())).cwiseMax(-env.max_joint_step).cwiseMin(env.max_joint_step);
+  return dq.cast<float>();
+}
+
+
+}  // namespace dd::ui::console
