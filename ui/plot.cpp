@@ -26,6 +26,14 @@ void text(cv::Mat& m, const std::string& s, cv::Point at, double scale = 0.5, cv
   cv::putText(m, s, at, kFont, scale, color, thickness, cv::LINE_AA);
 }
 
+int text_width(const std::string& s, double scale) {
+  int base = 0;
+  return cv::getTextSize(s, kFont, scale, 1, &base).width;
+}
+
+// The band at the left edge that a vertical axis label (vertical_text at x = 16) takes.
+constexpr int kAxisLabelBand = 28;
+
 void vertical_text(cv::Mat& m, const std::string& s, cv::Point center, double scale = 0.5) {
   int base = 0;
   const cv::Size sz = cv::getTextSize(s, kFont, scale, 1, &base);
@@ -133,8 +141,6 @@ Image draw_lines(const LinePanel& p) {
   const int named = static_cast<int>(std::count_if(p.series.begin(), p.series.end(), [](const LineSeries& s) { return !s.name.empty(); }));
   const int legend_h = named > 0 ? 18 * named + 10 : 0;
   cv::Mat m(p.height + legend_h, p.width, CV_8UC3, cv::Scalar(255, 255, 255));
-  const int left = p.margin_left, right = p.margin_right, top = 50, bottom = 60;
-  const cv::Rect area(left, top, p.width - left - right, p.height - top - bottom);
   double x0 = INFINITY, x1 = -INFINITY, y0 = INFINITY, y1 = -INFINITY;
   for (const auto& s : p.series)
     for (size_t i = 0; i < s.x.size() && i < s.y.size(); ++i) {
@@ -154,14 +160,23 @@ Image draw_lines(const LinePanel& p) {
   if (fixed_x) x0 = p.x_min, x1 = p.x_max;
   const double xstep = nice_step(x1 - x0, fixed_x ? 8 : 6), ystep = nice_step(y1 - y0, 5);
   if (!fixed_x) x0 = std::floor(x0 / xstep) * xstep, x1 = std::ceil(x1 / xstep) * xstep;
+  // the left margin holds the widest y tick label, right-aligned, clear of the vertical axis label
+  std::vector<std::pair<double, std::string>> y_ticks;
+  int label_w = 0;
+  for (double v = std::ceil(y0 / ystep) * ystep; v <= y1 + 1e-12; v += ystep) {
+    y_ticks.emplace_back(v, fmt_num(v));
+    label_w = std::max(label_w, text_width(y_ticks.back().second, 0.42));
+  }
+  const int left = std::max(p.margin_left, kAxisLabelBand + label_w + 8), right = p.margin_right, top = 50, bottom = 60;
+  const cv::Rect area(left, top, p.width - left - right, p.height - top - bottom);
   auto px = [&](double x, double y) {
     return cv::Point(area.x + static_cast<int>(std::lround((x - x0) / (x1 - x0) * area.width)),
                      area.y + area.height - static_cast<int>(std::lround((y - y0) / (y1 - y0) * area.height)));
   };
-  for (double v = std::ceil(y0 / ystep) * ystep; v <= y1 + 1e-12; v += ystep) {
+  for (const auto& [v, label] : y_ticks) {
     const int y = px(x0, v).y;
     cv::line(m, {area.x, y}, {area.x + area.width, y}, kGrid, 1);
-    text(m, fmt_num(v), {area.x - 8 - 8 * static_cast<int>(fmt_num(v).size()), y + 4}, 0.42);
+    text(m, label, {area.x - 8 - text_width(label, 0.42), y + 4}, 0.42);
   }
   for (double v = x0; v <= x1 + 1e-12; v += xstep) {
     const int x = px(v, y0).x;
