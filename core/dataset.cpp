@@ -417,59 +417,6 @@ DatasetInfo dataset_info(const std::string& path) {
 
 namespace {
 
-// The episodes and info a child process read, as bytes for the pipe (read_in_child) and back.
-class Bytes {
- public:
-  std::string out;
-  template <typename T>
-  void put(const T& v) { out.append(reinterpret_cast<const char*>(&v), sizeof v); }
-  template <typename T>
-  void put_all(const T* p, size_t n) {
-    put<uint64_t>(n);
-    if (n > 0) out.append(reinterpret_cast<const char*>(p), n * sizeof(T));
-  }
-  void put_string(const std::string& s) { put_all(s.data(), s.size()); }
-  void put_mat(const Mat& m) {
-    put<int64_t>(m.rows());
-    put<int64_t>(m.cols());
-    if (m.size() > 0) out.append(reinterpret_cast<const char*>(m.data()), static_cast<size_t>(m.size()) * sizeof(float));
-  }
-
-  explicit Bytes(std::string in = {}) : in_(std::move(in)) {}
-  template <typename T>
-  T get() {
-    T v;
-    take(&v, sizeof v);
-    return v;
-  }
-  template <typename T>
-  std::vector<T> get_all() {
-    std::vector<T> v(get<uint64_t>());
-    take(v.data(), v.size() * sizeof(T));
-    return v;
-  }
-  std::string get_string() {
-    const std::vector<char> v = get_all<char>();
-    return std::string(v.begin(), v.end());
-  }
-  Mat get_mat() {
-    const auto rows = get<int64_t>(), cols = get<int64_t>();
-    Mat m(rows, cols);
-    take(m.data(), static_cast<size_t>(m.size()) * sizeof(float));
-    return m;
-  }
-
- private:
-  void take(void* p, size_t n) {
-    if (n == 0) return;  // (an empty vector's data() may be null, which memcpy may not be given)
-    if (n > in_.size() - pos_) throw Error("read_dataset: the reading child process sent a short message");
-    std::memcpy(p, in_.data() + pos_, n);
-    pos_ += n;
-  }
-  std::string in_;
-  size_t pos_ = 0;
-};
-
 std::vector<RecordedEpisode> read_dataset_here(const std::string& path, DatasetInfo* info);
 
 }  // namespace
@@ -505,7 +452,7 @@ std::vector<RecordedEpisode> read_dataset(const std::string& path, DatasetInfo* 
       b.put_string(e.source);
     }
     return std::move(b.out);
-  }));
+  }), "read_dataset: the reading child process");
   DatasetInfo i;
   i.path = path;
   i.total = in.get<int64_t>();

@@ -8,7 +8,6 @@
 #include <unistd.h>
 
 #include <cstdio>
-#include <cstring>
 #include <filesystem>
 
 #include <ATen/Parallel.h>
@@ -88,20 +87,19 @@ std::vector<TrainStats> PolicyEnsemble::train(const std::vector<Episode>& episod
 
 void PolicyEnsemble::train_in_children(const std::vector<std::vector<Episode>>& data, const TrainConfig& config, int total,
                                        const ProgressFn& progress, std::vector<TrainStats>& stats) {
-  // Each child trains one member on one thread, saves it to a temporary checkpoint and returns the
-  // file's name after its training stats; progress comes back as "steps loss" messages.
+  // Each child trains one member on one thread, saves it to a temporary checkpoint and returns its
+  // training stats and the file's name; progress comes back as "steps loss" messages.
   const fs::path dir = fs::temp_directory_path();
   auto job = [&](int m, const ReportFn& report) {
     const ProgressFn member_progress = [&](int steps, int, double loss) { report(fmt::format("{} {}", steps, loss)); };
     const TrainStats s = train_member(m, data[static_cast<size_t>(m)], config, progress ? member_progress : ProgressFn{});
     const std::string file = (dir / fmt::format("dd_member_{}_{}.pt", ::getpid(), m)).string();
     members_[static_cast<size_t>(m)]->save(file);
-    std::string out(sizeof(double), '\0');
-    std::memcpy(out.data(), &s.seconds, sizeof(double));
-    const uint64_t count = s.losses.size();
-    out.append(reinterpret_cast<const char*>(&count), sizeof count);
-    out.append(reinterpret_cast<const char*>(s.losses.data()), s.losses.size() * sizeof(float));
-    return out + file;
+    Bytes b;
+    b.put(s.seconds);
+    b.put_all(s.losses.data(), s.losses.size());
+    b.put_string(file);
+    return std::move(b.out);
   };
   std::vector<int> done(members_.size(), 0);
   auto on_report = [&](int m, const std::string& message) {
@@ -116,16 +114,10 @@ void PolicyEnsemble::train_in_children(const std::vector<std::vector<Episode>>& 
   // BM_EnsembleTrain_32_64_128).
   const std::vector<std::string> results = run_in_children(size(), size(), "ensemble training", job, on_report);
   for (size_t m = 0; m < results.size(); ++m) {
-    const std::string& r = results[m];
-    uint64_t count = 0;
-    if (r.size() < sizeof(double) + sizeof count) throw Error("ensemble training: member " + std::to_string(m) + " sent a short result");
-    std::memcpy(&stats[m].seconds, r.data(), sizeof(double));
-    std::memcpy(&count, r.data() + sizeof(double), sizeof count);
-    const size_t at = sizeof(double) + sizeof count + count * sizeof(float);
-    if (r.size() <= at) throw Error("ensemble training: member " + std::to_string(m) + " sent a short result");
-    stats[m].losses.resize(count);
-    std::memcpy(stats[m].losses.data(), r.data() + sizeof(double) + sizeof count, count * sizeof(float));
-    const std::string file = r.substr(at);
+    Bytes r(results[m], "ensemble training: member " + std::to_string(m) + "'s child process");
+    stats[m].seconds = r.get<double>();
+    stats[m].losses = r.get_all<float>();
+    const std::string file = r.get_string();
     try {
       members_[m]->load(file);
     } catch (...) {

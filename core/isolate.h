@@ -7,9 +7,14 @@
 // Error naming the file instead of a crash or a corrupted heap.
 #pragma once
 
+#include <cstdint>
+#include <cstring>
 #include <functional>
 #include <string>
 #include <vector>
+
+#include "core/config.h"
+#include "core/types.h"
 
 namespace dd {
 
@@ -40,5 +45,62 @@ using ReportFn = std::function<void(const std::string& message)>;
 std::vector<std::string> run_in_children(int n, int concurrent, const std::string& what,
                                          const std::function<std::string(int, const ReportFn&)>& job,
                                          const std::function<void(int, const std::string&)>& on_report = {});
+
+/// What a child process sends back (read_in_child, run_in_children), as bytes and back again:
+/// numbers, arrays, strings and matrices, in the order they were put.
+class Bytes {
+ public:
+  std::string out;
+  template <typename T>
+  void put(const T& v) { out.append(reinterpret_cast<const char*>(&v), sizeof v); }
+  template <typename T>
+  void put_all(const T* p, size_t n) {
+    put<uint64_t>(n);
+    if (n > 0) out.append(reinterpret_cast<const char*>(p), n * sizeof(T));
+  }
+  void put_string(const std::string& s) { put_all(s.data(), s.size()); }
+  void put_mat(const Mat& m) {
+    put<int64_t>(m.rows());
+    put<int64_t>(m.cols());
+    if (m.size() > 0) out.append(reinterpret_cast<const char*>(m.data()), static_cast<size_t>(m.size()) * sizeof(float));
+  }
+
+  /// Reading `in`; a read past its end throws Error("<from> sent a short message").
+  explicit Bytes(std::string in = {}, std::string from = "a child process") : in_(std::move(in)), from_(std::move(from)) {}
+  template <typename T>
+  T get() {
+    T v;
+    take(&v, sizeof v);
+    return v;
+  }
+  template <typename T>
+  std::vector<T> get_all() {
+    std::vector<T> v(get<uint64_t>());
+    take(v.data(), v.size() * sizeof(T));
+    return v;
+  }
+  std::string get_string() {
+    const std::vector<char> v = get_all<char>();
+    return std::string(v.begin(), v.end());
+  }
+  Mat get_mat() {
+    const auto rows = get<int64_t>(), cols = get<int64_t>();
+    Mat m(rows, cols);
+    take(m.data(), static_cast<size_t>(m.size()) * sizeof(float));
+    return m;
+  }
+
+ private:
+  void take(void* p, size_t n) {
+    if (n == 0) return;  // (an empty vector's data() may be null, which memcpy may not be given)
+    if (n > in_.size() - pos_) throw Error(from_ + " sent a short message");
+    std::memcpy(p, in_.data() + pos_, n);
+    pos_ += n;
+  }
+  std::string in_;
+  std::string from_;
+  size_t pos_ = 0;
+};
+
 
 }  // namespace dd
