@@ -197,7 +197,9 @@ DaggerRunResult run_dagger(const ExperimentConfig& config, const DaggerRunOption
 
   auto env = make_env(config.task);
   auto expert = make_expert(config.task, config.expert);
-  auto method = make_method(o.method, config.policy, config.method, config.dagger.seed);
+  MethodConfig method_config = config.method;
+  method_config.compare_scores.clear();  // an RQ1 instrument (eval); the session acts on the main rule alone
+  auto method = make_method(o.method, config.policy, method_config, config.dagger.seed);
   DatasetWriter writer(result.dataset, env_args(config.task));
   TrainConfig train = config.train;
   // Fine-tuning updates add up their steps: BC, trained once, gets as many. From-scratch updates train
@@ -857,9 +859,16 @@ void run_eval(const ExperimentConfig& config, const EvalOptions& o) {
       ProgressBar bar(fmt::format("[seed {}] RQ1 {:8} rollouts", s, name), "success");
       results = evaluate_rollouts(*env, *m, o.episodes, spec, eval_seed, bar.fn());
     }
-    const FailurePrediction p = failure_prediction(results);
-    const nlohmann::json j{{"tpr", p.tpr}, {"tnr", p.tnr}, {"f1", p.f1}, {"acc", p.accuracy}, {"tp", p.tp}, {"fp", p.fp},
-                           {"tn", p.tn}, {"fn", p.fn}, {"success", success_rate(results)}, {"risk_data_s", risk_data_s}};
+    auto prediction_json = [](const FailurePrediction& p) {
+      return nlohmann::json{{"tpr", p.tpr}, {"tnr", p.tnr}, {"f1", p.f1}, {"acc", p.accuracy},
+                            {"tp", p.tp},   {"fp", p.fp},   {"tn", p.tn}, {"fn", p.fn}};
+    };
+    nlohmann::json j = prediction_json(failure_prediction(results));
+    j["success"] = success_rate(results);
+    j["risk_data_s"] = risk_data_s;
+    // method.compare_scores: the other rules' verdicts on these very rollouts
+    const std::vector<std::string> rules = m->compare_rules();
+    for (size_t i = 0; i < rules.size(); ++i) j["compare"][rules[i]] = prediction_json(failure_prediction(results, i));
     save_cell(cell_file(name, s, true), j);
   };
   // RQ2 and RQ3: interactive learning to N_f, then rollouts of the final policy.
@@ -922,6 +931,10 @@ void run_eval(const ExperimentConfig& config, const EvalOptions& o) {
         const nlohmann::json j = nlohmann::json::parse(read_text(cell_file(name, s, true)));
         fmt::print("[seed {}] RQ1 {:8} TP {} FP {} TN {} FN {} (policy success {:.2f})\n", s, name, j.at("tp").get<int>(),
                    j.at("fp").get<int>(), j.at("tn").get<int>(), j.at("fn").get<int>(), j.at("success").get<double>());
+        if (j.contains("compare"))
+          for (const auto& [rule, p] : j["compare"].items())
+            fmt::print("[seed {}] RQ1 {:8}   scored {:10} TP {} FP {} TN {} FN {}\n", s, name, rule, p.at("tp").get<int>(),
+                       p.at("fp").get<int>(), p.at("tn").get<int>(), p.at("fn").get<int>());
       }
     fmt::print("RQ1 cells in {}/cells; run without --only-rq1 for RQ2, RQ3 and the report\n", o.out);
     return;

@@ -12,6 +12,8 @@ std::vector<RolloutResult> evaluate_rollouts(Env& env, Method& method, int episo
                                              const ProgressFn& progress, std::vector<RecordedEpisode>* recorded) {
   std::vector<RolloutResult> out;
   QueryGate gate(0.f, spec.patience);
+  const size_t n_compare = method.compare_rules().size();
+  std::vector<QueryGate> compare_gates(n_compare, QueryGate(0.f, spec.patience));
   const bool every_step = spec.gate_every == GateCadence::kStep && method.gated();
   for (int e = 0; e < episodes; ++e) {
     RolloutResult r;
@@ -19,6 +21,8 @@ std::vector<RolloutResult> evaluate_rollouts(Env& env, Method& method, int episo
     env.reset(s);
     env.set_time_limit(spec.time_limit);
     gate.reset();
+    for (QueryGate& g : compare_gates) g.reset();
+    r.compare_queried.assign(n_compare, 0);
     bool done = false;
     uint64_t decision = 0;
     Mat chunk;
@@ -35,6 +39,11 @@ std::vector<RolloutResult> evaluate_rollouts(Env& env, Method& method, int episo
           r.queried = true;
           r.first_query_step = env.steps();
         }
+        if (d.compare_violations.size() != n_compare)
+          throw Error(method.name() + ": a decision judged " + std::to_string(d.compare_violations.size()) + " compared rules, not " +
+                      std::to_string(n_compare));
+        for (size_t i = 0; i < n_compare; ++i)
+          if (compare_gates[i].record(d.compare_violations[i]).query) r.compare_queried[i] = 1;
         if (need_chunk) {
           chunk = d.chunk;
           pos = 0;
@@ -93,13 +102,16 @@ RecordedEpisode expert_episode(Env& env, Expert& expert, uint64_t seed) {
   return ep;
 }
 
-FailurePrediction failure_prediction(const std::vector<RolloutResult>& results) {
+namespace {
+
+template <typename Queried>
+FailurePrediction confusion(const std::vector<RolloutResult>& results, Queried queried) {
   FailurePrediction p;
   for (const auto& r : results) {
-    const bool failure = !r.success;
-    if (r.queried && failure) ++p.tp;
-    else if (r.queried && !failure) ++p.fp;
-    else if (!r.queried && !failure) ++p.tn;
+    const bool failure = !r.success, q = queried(r);
+    if (q && failure) ++p.tp;
+    else if (q && !failure) ++p.fp;
+    else if (!q && !failure) ++p.tn;
     else ++p.fn;
   }
   const int failures = p.tp + p.fn, successes = p.tn + p.fp, n = failures + successes;
@@ -110,6 +122,19 @@ FailurePrediction failure_prediction(const std::vector<RolloutResult>& results) 
   p.f1 = f1_den ? 2.0 * p.tp / f1_den : NAN;
   p.accuracy = n ? static_cast<double>(p.tp + p.tn) / n : NAN;
   return p;
+}
+
+}  // namespace
+
+FailurePrediction failure_prediction(const std::vector<RolloutResult>& results) {
+  return confusion(results, [](const RolloutResult& r) { return r.queried; });
+}
+
+FailurePrediction failure_prediction(const std::vector<RolloutResult>& results, size_t rule) {
+  return confusion(results, [&](const RolloutResult& r) {
+    if (rule >= r.compare_queried.size()) throw Error("failure_prediction: no compared rule " + std::to_string(rule) + " in the rollouts");
+    return r.compare_queried[rule] != 0;
+  });
 }
 
 double success_rate(const std::vector<RolloutResult>& results) {

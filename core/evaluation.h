@@ -16,6 +16,7 @@ struct RolloutResult {
   bool success = false;
   bool queried = false;       // the rule would have asked (K violations in a row) at some point
   int first_query_step = -1;  // env step of the first would-be query
+  std::vector<uint8_t> compare_queried;  // per Method::compare_rules(): that rule would have asked
   std::string outcome;        // Env::outcome() at the end
   int steps = 0;
   int decisions = 0;
@@ -50,6 +51,8 @@ struct FailurePrediction {
   double accuracy = 0;  // NaN without rollouts
 };
 FailurePrediction failure_prediction(const std::vector<RolloutResult>& results);
+/// The same for the compared rule `rule` (an index into Method::compare_rules()) on the same rollouts.
+FailurePrediction failure_prediction(const std::vector<RolloutResult>& results, size_t rule);
 
 /// Fraction of successful rollouts.
 double success_rate(const std::vector<RolloutResult>& results);

@@ -29,11 +29,22 @@ class DiffMethod : public Method {
  public:
   DiffMethod(const PolicyConfig& pc, const MethodConfig& mc, uint64_t seed) : policy_(pc, seed), config_(mc), seed_(seed) {
     policy_.set_score_weights(mc.score_raw_weights ? ScoreWeights::kRaw : ScoreWeights::kEma);
-    policy_.set_score_space(score_space_from(mc.score_space));
-    policy_.set_score_timesteps(mc.score_timesteps);
+    main_rule_ = {mc.score_space, mc.score_timesteps};
+    use(main_rule_);
     policy_.set_inference_precision(inference_precision_from(mc.precision));
+    for (const std::string& r : mc.compare_scores) {
+      compare_.push_back(ScoreRule::parse(r));
+      use(compare_.back());  // checks K against T_d now rather than at the first decision
+    }
+    use(main_rule_);
+    compare_thresholds_.assign(compare_.size(), INFINITY);
   }
   std::string name() const override { return "diff"; }
+  std::vector<std::string> compare_rules() const override {
+    std::vector<std::string> names;
+    for (const ScoreRule& r : compare_) names.push_back(r.name());
+    return names;
+  }
 
   UpdateReport update(const std::vector<Episode>& expert, const std::vector<RecordedEpisode>&, const TrainConfig& train_config,
                       const ProgressFn& progress) override {
@@ -66,23 +77,44 @@ class DiffMethod : public Method {
     m.score = d.loss;
     m.threshold = threshold_;
     m.violation = !std::isfinite(d.loss) || d.loss > threshold_;
+    // The compared rules score the same chunk, each in its own way, with noise of their own.
+    for (size_t i = 0; i < compare_.size(); ++i) {
+      use(compare_[i]);
+      const float loss = policy_.expected_loss(obs, d.chunk, seed ^ (0x5C0E'0000'0000'0000ull + i), config_.loss_samples);
+      m.compare_scores.push_back(loss);
+      m.compare_violations.push_back(!std::isfinite(loss) || loss > compare_thresholds_[i]);
+    }
+    if (!compare_.empty()) use(main_rule_);
     return m;
   }
   float threshold() const override { return threshold_; }
   void save(const std::string& dir) const override { policy_.save(dir + "/policy.pt"); }
 
  private:
-  // The alpha-quantile of the expected loss over the training pairs (a subset when calibration_pairs).
+  void use(const ScoreRule& r) {
+    policy_.set_score_space(score_space_from(r.space));
+    policy_.set_score_timesteps(r.timesteps);
+  }
+  // The alpha-quantile of the expected loss over the training pairs (a subset when calibration_pairs),
+  // and of each compared rule's score over the same pairs.
   void set_threshold(const ChunkDataset& data, UpdateReport& r) {
     const auto t = Clock::now();
     const ChunkDataset cal = data.subset(config_.calibration_pairs, seed_ + ++updates_);
-    const LossQuantile q = policy_.loss_quantile(cal, config_.alpha, seed_ * 31 + updates_, config_.loss_samples,
-                                                 config_.screen_threshold);
-    threshold_ = q.threshold;
-    spdlog::debug("diff: threshold {:.5f} over {} pairs, {} of them at {} rows (screened at {})", q.threshold, q.pairs, q.refined,
-                  config_.loss_samples, q.screen_samples);
-    r.threshold_s = since(t);
+    auto quantile = [&] {
+      const LossQuantile q = policy_.loss_quantile(cal, config_.alpha, seed_ * 31 + updates_, config_.loss_samples,
+                                                   config_.screen_threshold);
+      spdlog::debug("diff: threshold {:.5f} over {} pairs, {} of them at {} rows (screened at {})", q.threshold, q.pairs, q.refined,
+                    config_.loss_samples, q.screen_samples);
+      return q.threshold;
+    };
+    threshold_ = quantile();
+    r.threshold_s = since(t);  // the compared rules' thresholds are not the method's cost
     r.threshold = threshold_;
+    for (size_t i = 0; i < compare_.size(); ++i) {
+      use(compare_[i]);
+      compare_thresholds_[i] = quantile();
+    }
+    if (!compare_.empty()) use(main_rule_);
   }
 
  protected:
@@ -99,6 +131,9 @@ class DiffMethod : public Method {
   uint64_t seed_;
   uint64_t updates_ = 0;
   float threshold_ = INFINITY;
+  ScoreRule main_rule_;
+  std::vector<ScoreRule> compare_;
+  std::vector<float> compare_thresholds_;
 };
 
 class EnsembleMethod : public Method {
@@ -376,6 +411,26 @@ void Method::load_state(const std::string& dir) {
 }
 
 std::unique_ptr<Method> act_with(const DiffusionPolicy& policy) { return std::make_unique<PolicyActor>(policy); }
+
+ScoreRule ScoreRule::parse(const std::string& text) {
+  ScoreRule r;
+  const size_t at = text.find('@');
+  r.space = text.substr(0, at);
+  try {
+    score_space_from(r.space);  // the one list of names
+  } catch (const Error& e) {
+    throw Error("score rule '" + text + "': " + e.what());
+  }
+  if (at != std::string::npos) {
+    const std::string k = text.substr(at + 1);
+    if (k.empty() || k.size() > 4 || k.find_first_not_of("0123456789") != std::string::npos || std::stoi(k) < 1)
+      throw Error("score rule '" + text + "': '" + k + "' after @ is not a number of timesteps >= 1");
+    r.timesteps = std::stoi(k);
+  }
+  return r;
+}
+
+std::string ScoreRule::name() const { return timesteps > 0 ? space + "@" + std::to_string(timesteps) : space; }
 
 std::vector<std::string> method_names() { return {"diff", "ensemble", "thrifty", "bc"}; }
 

@@ -36,9 +36,23 @@ struct MethodConfig {
   bool score_raw_weights = false;  // diff: score the loss with the raw training weights instead of the EMA
   int score_timesteps = 0;  // diff: the loss draws t from [0, this) only; 0: every timestep (the paper's)
   std::string score_space = "target";  // diff: the space the loss is scored in: target (the paper's) | epsilon | sample | v (DiffusionPolicy)
+  /// diff, eval's RQ1: further query rules judged on the same rollouts, each with its own threshold
+  /// (ScoreRule names: "epsilon", "target@4"); they only watch, the robot acts on the main rule.
+  std::vector<std::string> compare_scores;
   std::string precision = "float32";  // inference arithmetic of every method's policies: float32 | bfloat16 (DiffusionPolicy)
   double risk_quantile = 0.01;   // thrifty: gamma is this quantile of Q on robot data
   CriticConfig critic;           // thrifty
+};
+
+/// A Diff-DAgger score: the space the expected loss is measured in and the timesteps it draws from.
+/// Written "SPACE" or "SPACE@K" (K: score_timesteps), e.g. "target" (the paper's), "epsilon",
+/// "target@4" (t < 4 only).
+struct ScoreRule {
+  std::string space = "target";
+  int timesteps = 0;  // 0: every timestep
+  /// Throws Error naming `text` when it is not SPACE or SPACE@K with K >= 1.
+  static ScoreRule parse(const std::string& text);
+  std::string name() const;
 };
 
 /// One decision of a method.
@@ -48,6 +62,8 @@ struct MethodDecision {
   float threshold = 0;
   bool violation = false;    // the query rule's verdict for this decision
   float risk_q = -1;         // thrifty: min Q(o, a); -1 when not computed
+  std::vector<float> compare_scores;        // diff: the score of each MethodConfig::compare_scores rule
+  std::vector<uint8_t> compare_violations;  // and its verdict
 };
 
 /// What one policy update cost and set.
@@ -65,6 +81,8 @@ class Method {
   virtual std::string name() const = 0;
   /// False for BC: it never asks.
   virtual bool gated() const { return true; }
+  /// The rules decide() also judges each decision by (MethodConfig::compare_scores; diff only).
+  virtual std::vector<std::string> compare_rules() const { return {}; }
   /// Trains on `expert` (all expert data so far) and sets the threshold; `robot` holds the robot's
   /// own rollouts (Thrifty's critic learns from them).
   virtual UpdateReport update(const std::vector<Episode>& expert, const std::vector<RecordedEpisode>& robot,

@@ -77,7 +77,7 @@ void apply_dagger(const json& j, DaggerConfig& d) {
 
 void apply_method(const json& j, MethodConfig& m) {
   require_known_keys(j, {"alpha", "members", "loss_samples", "calibration_pairs", "screen_threshold", "score_weights", "risk_quantile",
-                         "critic_steps", "precision", "score_space", "score_timesteps"},
+                         "critic_steps", "precision", "score_space", "score_timesteps", "compare_scores"},
                      "method");
   read(j, "alpha", m.alpha, "method");
   read(j, "members", m.members, "method");
@@ -101,6 +101,16 @@ void apply_method(const json& j, MethodConfig& m) {
       throw Error(std::string("method.score_space: ") + e.what());
     }
   }
+  if (j.contains("compare_scores")) {
+    read(j, "compare_scores", m.compare_scores, "method");
+    for (const std::string& r : m.compare_scores) {
+      try {
+        ScoreRule::parse(r);
+      } catch (const Error& e) {
+        throw Error(std::string("method.compare_scores: ") + e.what());
+      }
+    }
+  }
   if (j.contains("precision")) {
     read(j, "precision", m.precision, "method");
     try {
@@ -115,7 +125,7 @@ json method_json(const MethodConfig& m) {
   return json{{"alpha", m.alpha}, {"members", m.members}, {"loss_samples", m.loss_samples},
               {"calibration_pairs", m.calibration_pairs}, {"screen_threshold", m.screen_threshold},
               {"score_weights", m.score_raw_weights ? "raw" : "ema"}, {"risk_quantile", m.risk_quantile}, {"critic_steps", m.critic.steps},
-              {"precision", m.precision}, {"score_space", m.score_space}, {"score_timesteps", m.score_timesteps}};
+              {"precision", m.precision}, {"score_space", m.score_space}, {"score_timesteps", m.score_timesteps}, {"compare_scores", m.compare_scores}};
 }
 
 json dagger_json(const DaggerConfig& d) {
@@ -161,6 +171,10 @@ void ExperimentConfig::validate() const {
   if (method.score_timesteps < 0 || method.score_timesteps > policy.scheduler.num_train_timesteps)
     throw Error("method.score_timesteps: " + std::to_string(method.score_timesteps) + " is not between 0 (every timestep) and " +
                 "policy.scheduler.num_train_timesteps (" + std::to_string(policy.scheduler.num_train_timesteps) + ")");
+  for (const std::string& r : method.compare_scores)
+    if (ScoreRule::parse(r).timesteps > policy.scheduler.num_train_timesteps)
+      throw Error("method.compare_scores: '" + r + "' draws from more timesteps than policy.scheduler.num_train_timesteps (" +
+                  std::to_string(policy.scheduler.num_train_timesteps) + ")");
   if (rq1_demos < 1) throw Error("rq1_demos: must be >= 1");
 }
 

@@ -129,7 +129,7 @@ TEST(ExperimentConfig, ProtocolOptionsReadFromAFile) {
 expert: ccw
 train: {from_scratch: true, epochs: 300, max_steps: 5000}
 dagger: {gate_every: step}
-method: {score_weights: raw, calibration_pairs: 500, score_space: epsilon, score_timesteps: 4}
+method: {score_weights: raw, calibration_pairs: 500, score_space: epsilon, score_timesteps: 4, compare_scores: [target, "v@2"]}
 )");
   const ExperimentConfig c = load_experiment_config(path);
   EXPECT_EQ(c.expert, "ccw");
@@ -141,6 +141,7 @@ method: {score_weights: raw, calibration_pairs: 500, score_space: epsilon, score
   EXPECT_EQ(c.method.calibration_pairs, 500);
   EXPECT_EQ(c.method.score_space, "epsilon");
   EXPECT_EQ(c.method.score_timesteps, 4);
+  EXPECT_EQ(c.method.compare_scores, (std::vector<std::string>{"target", "v@2"}));
   // and they round-trip through the JSON every run writes beside its results
   EXPECT_NE(to_json_text(c).find("\"gate_every\": \"step\""), std::string::npos);
   EXPECT_NE(to_json_text(c).find("\"score_weights\": \"raw\""), std::string::npos);
@@ -155,6 +156,9 @@ TEST(ExperimentConfig, BadProtocolOptionsNameTheFileAndKey) {
            {"preset: stack\nmethod: {score_space: x0}\n", "method.score_space"},
            {"preset: stack\nmethod: {score_timesteps: 17}\n", "method.score_timesteps"},
            {"preset: stack\nmethod: {score_timesteps: -1}\n", "method.score_timesteps"},
+           {"preset: stack\nmethod: {compare_scores: [x0]}\n", "method.compare_scores"},
+           {"preset: stack\nmethod: {compare_scores: [\"target@17\"]}\n", "method.compare_scores"},
+           {"preset: stack\nmethod: {compare_scores: epsilon}\n", "method.compare_scores"},
            {"preset: stack\ntrain: {epochs: -1}\n", "train.epochs"},
            // numbers that do not fit their integer (tests/fuzz: converting them was undefined behaviour)
            {"preset: stack\ndagger: {patience: 1e20}\n", "dagger.patience"},

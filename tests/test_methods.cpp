@@ -233,4 +233,97 @@ TEST(Rollouts, TheGateScoresPerChunkOrPerStep) {
   EXPECT_FALSE(r.queried);
 }
 
+namespace {
+
+// Violates on every decision; of its two compared rules the first violates on every other decision,
+// the second never.
+class ComparesTwoRules : public AlwaysViolates {
+ public:
+  ComparesTwoRules() : AlwaysViolates(true) {}
+  std::vector<std::string> compare_rules() const override { return {"alternating", "never"}; }
+  MethodDecision decide(const Vec& obs, uint64_t seed) override {
+    MethodDecision d = AlwaysViolates::decide(obs, seed);
+    d.compare_violations = {static_cast<uint8_t>(n_++ % 2 == 0), 0};
+    return d;
+  }
+
+ private:
+  int n_ = 0;
+};
+
+}  // namespace
+
+TEST(Rollouts, ComparedRulesAreJudgedOnTheSameRollouts) {
+  fakes::LineEnv env(/*goal=*/12, /*limit=*/100);
+  ComparesTwoRules m;
+  const auto results = evaluate_rollouts(env, m, 3, RolloutSpec{100, 2, 4, GateCadence::kChunk}, 0);
+  for (const RolloutResult& r : results) {
+    EXPECT_TRUE(r.queried);
+    ASSERT_EQ(r.compare_queried.size(), 2u);
+    EXPECT_EQ(r.compare_queried[0], 0);  // never two violations in a row (K = 2)
+    EXPECT_EQ(r.compare_queried[1], 0);
+  }
+  const FailurePrediction main_rule = failure_prediction(results), never = failure_prediction(results, 1);
+  EXPECT_EQ(main_rule.fp, 3);  // every rollout succeeds and was queried
+  EXPECT_EQ(never.tn, 3);
+  EXPECT_THROW(failure_prediction(results, 2), Error);
+  // K = 1: the alternating rule asks at its first violation
+  const auto eager = evaluate_rollouts(env, m, 1, RolloutSpec{100, 1, 4, GateCadence::kChunk}, 0);
+  EXPECT_EQ(eager.front().compare_queried[0], 1);
+}
+
+TEST(Methods, ScoreRulesParseAndName) {
+  EXPECT_EQ(ScoreRule::parse("target").name(), "target");
+  const ScoreRule low = ScoreRule::parse("epsilon@4");
+  EXPECT_EQ(low.space, "epsilon");
+  EXPECT_EQ(low.timesteps, 4);
+  EXPECT_EQ(low.name(), "epsilon@4");
+  for (const char* bad : {"targets", "target@0", "target@", "epsilon@x", "@4"}) {
+    try {
+      ScoreRule::parse(bad);
+      ADD_FAILURE() << bad << " parsed";
+    } catch (const Error& e) {
+      EXPECT_NE(std::string(e.what()).find(std::string("'") + bad + "'"), std::string::npos) << e.what();
+    }
+  }
+}
+
+TEST(Methods, DiffJudgesItsComparedRulesWithThresholdsOfTheirOwn) {
+  const auto episodes = bimodal_episodes(12, 10, 2, 2, /*seed=*/5);
+  MethodConfig mc = small_method();
+  mc.compare_scores = {"target", "target@1"};
+  auto m = make_method("diff", fakes::tiny_policy(), mc, 1);
+  EXPECT_EQ(m->compare_rules(), (std::vector<std::string>{"target", "target@1"}));
+  m->update(episodes, {}, short_training());
+  // "target" is the main rule scored again with other noise: over states along the data its scores
+  // average out to the main score's and its verdicts mostly agree; "target@1" (the lowest-noise
+  // timestep alone) scores something else.
+  int agree = 0, n = 0;
+  double main_sum = 0, again_sum = 0, low_sum = 0;
+  for (const Episode& e : episodes)
+    for (Eigen::Index t = 0; t < e.obs.rows(); t += 3, ++n) {
+      const MethodDecision d = m->decide(e.obs.row(t).transpose(), 100 + static_cast<uint64_t>(n));
+      ASSERT_EQ(d.compare_scores.size(), 2u);
+      ASSERT_EQ(d.compare_violations.size(), 2u);
+      agree += d.violation == (d.compare_violations[0] != 0);
+      main_sum += d.score;
+      again_sum += d.compare_scores[0];
+      low_sum += d.compare_scores[1];
+    }
+  EXPECT_GE(agree, n * 3 / 4) << agree << " of " << n;
+  EXPECT_NEAR(again_sum / main_sum, 1.0, 0.2);
+  EXPECT_GT(std::abs(low_sum / main_sum - 1.0), 0.2);
+  // the main rule is unchanged by the compared ones: same policy seed, same decision
+  MethodConfig plain = small_method();
+  auto reference = make_method("diff", fakes::tiny_policy(), plain, 1);
+  reference->update(episodes, {}, short_training());
+  EXPECT_FLOAT_EQ(reference->threshold(), m->threshold());
+  const MethodDecision a = reference->decide(episodes[0].obs.row(0).transpose(), 9), b = m->decide(episodes[0].obs.row(0).transpose(), 9);
+  EXPECT_FLOAT_EQ(a.score, b.score);
+  EXPECT_TRUE(a.chunk.isApprox(b.chunk, 1e-6f));
+  // a rule drawing from more timesteps than the policy has is refused when the method is built
+  mc.compare_scores = {"epsilon@999"};
+  EXPECT_THROW(make_method("diff", fakes::tiny_policy(), mc, 1), Error);
+}
+
 }  // namespace dd

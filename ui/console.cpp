@@ -93,7 +93,9 @@ Console::Console(const ConsoleOptions& options) : s_(std::make_unique<State>()) 
         const Eigen::Vector2d t = s.dragging ? s.drag_target : Eigen::Vector2d(p + 0.2 * s.jog);
         return Vec(Eigen::Vector2d(t).cast<float>());
       });
-  s.method = make_method(s.o.method, c.policy, c.method, c.dagger.seed);
+  MethodConfig method_config = c.method;
+  method_config.compare_scores.clear();  // an RQ1 instrument (eval); the console gates on the main rule
+  s.method = make_method(s.o.method, c.policy, method_config, c.dagger.seed);
   s.writer = std::make_unique<DatasetWriter>(dataset, env_args(c.task));
   TrainConfig train = c.train;
   s.session = std::make_unique<DaggerSession>(*s.env, *s.expert, *s.method, c.dagger, train, s.writer.get());
