@@ -33,7 +33,7 @@ Command add_gui(CLI::App& app) {
   cmd->add_option("--policy", o->policies,
                    "checkpoint(s) the first update adopts instead of training (e.g. from import-policy; one per member for "
                    "ensemble and thrifty): the initial demonstrations then only set the threshold");
-  cmd->add_option("--script", o->run.script, "headless: YAML list of input events, e.g. - {on: query, after: 8, key: T}");
+  cmd->add_option("--script", o->run.script, "headless: YAML list of input events, e.g. - {on: query, after: 8, do: take_over}");
   cmd->add_option("--max-frames", o->run.max_frames, "headless: stop after this many frames (default 20000)");
   cmd->add_option("--width", o->run.width, "window or screenshot width")->capture_default_str();
   cmd->add_option("--height", o->run.height, "window or screenshot height")->capture_default_str();

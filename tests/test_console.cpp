@@ -11,12 +11,15 @@
 #include <thread>
 #include <filesystem>
 #include <fstream>
+#include <set>
 #include <sstream>
 
 #include "app/experiments.h"
 #include "core/config.h"
 #include "core/dataset.h"
+#include "ui/commands.h"
 #include "ui/console_app.h"
+#include "ui/script.h"
 #include "ui/image_io.h"
 #include "ui/worker.h"
 
@@ -103,10 +106,10 @@ TEST(Console, ScriptedOperatorTakesOverDrivesAndHandsBack) {
   fs::create_directories(dir);
   const std::string script = dir + "/script.yaml";
   std::ofstream(script) << "# take over from the robot after the first update, drive right, hand back, reset\n"
-                           "- {on: update, after: 3, key: T}\n"
+                           "- {on: update, after: 3, do: take_over}\n"
                            "- {on: takeover, after: 0, hold: Right, frames: 10}\n"
-                           "- {on: takeover, after: 12, key: H}\n"
-                           "- {on: takeover, after: 20, key: R}\n";
+                           "- {on: takeover, after: 12, do: hand_back}\n"
+                           "- {on: takeover, after: 20, do: reset}\n";
   ConsoleRunOptions run;
   run.script = script;
   run.max_frames = 260;
@@ -182,6 +185,71 @@ TEST(Console, MalformedScriptNamesTheFileAndTheField) {
     EXPECT_NE(what.find("kee"), std::string::npos) << what;
   }
   EXPECT_FALSE(fs::exists(dir + "/run/dataset.hdf5"));  // refused before anything was written
+  fs::remove_all(dir);
+}
+
+TEST(ConsoleCommands, OneTableBindsEveryCommandAndTheHelpIsMadeFromIt) {
+  std::set<std::string> names;
+  std::set<int> keys;
+  for (int i = 0; i <= static_cast<int>(Command::kBack); ++i) {
+    const Command c = static_cast<Command>(i);
+    const Binding& b = binding(c);  // throws when a command has no row
+    EXPECT_TRUE(names.insert(b.name).second) << "two commands named " << b.name;
+    EXPECT_FALSE(b.keys.empty()) << b.name << " has no key";
+    for (int k : b.keys) {
+      EXPECT_TRUE(keys.insert(k).second) << "key " << k << " is bound twice";
+      EXPECT_EQ(command_for_key(k), c);
+    }
+    EXPECT_EQ(command_named(b.name, "test"), c);
+  }
+  // a held key repeats only where that makes sense (single steps), never taking over again
+  EXPECT_EQ(command_for_key(binding(Command::kStep).keys.front(), /*repeat=*/true), Command::kStep);
+  EXPECT_FALSE(command_for_key(binding(Command::kTakeOver).keys.front(), /*repeat=*/true));
+  // the help lists every row, commands and continuous inputs alike
+  const auto help = console_keys();
+  ASSERT_EQ(help.size(), bindings().size());
+  for (size_t i = 0; i < help.size(); ++i) EXPECT_EQ(help[i].second, bindings()[i].description);
+  EXPECT_EQ(command_for_key_name("T", "test"), Command::kTakeOver);
+  EXPECT_EQ(command_for_key_name("Plus", "test"), Command::kFaster);
+  // the README's key table (from "| key | does |" to the blank line) and its list of script commands
+  // name every command's keys and name
+  const std::string readme = read_text(std::string(DD_SOURCE_DIR) + "/README.md");
+  const size_t table = readme.find("| key | does |");
+  ASSERT_NE(table, std::string::npos);
+  const std::string keys_table = readme.substr(table, readme.find("\n\n", table) - table);
+  const size_t list = readme.find("the commands are");
+  ASSERT_NE(list, std::string::npos);
+  const std::string command_list = readme.substr(list, readme.find("holds are", list) - list);
+  for (const Binding& b : bindings()) {
+    if (!b.command) continue;
+    EXPECT_NE(keys_table.find(b.keys_label), std::string::npos) << "README's key table lacks " << b.keys_label;
+    EXPECT_NE(command_list.find(b.name), std::string::npos) << "README's script commands lack " << b.name;
+  }
+}
+
+TEST(ConsoleCommands, ScriptsNameCommandsOrKeys) {
+  const std::string dir = temp_dir("commands");
+  fs::create_directories(dir);
+  const std::string script = dir + "/script.yaml";
+  std::ofstream(script) << "- {on: query, after: 8, do: take_over}\n- {at: 3, key: H}\n- {at: 4, hold: Left, frames: 2}\n";
+  const auto events = load_script(script);
+  ASSERT_EQ(events.size(), 3u);
+  EXPECT_EQ(events[0].command, Command::kTakeOver);
+  EXPECT_EQ(events[1].command, Command::kHandBack);
+  EXPECT_FALSE(events[2].command);
+  for (const auto& [text, expected] : std::vector<std::pair<std::string, std::string>>{
+           {"- {at: 1, do: fly}\n", "unknown command 'fly' (take_over, "},
+           {"- {at: 1, key: Q}\n", "key 'Q' does nothing"},
+           {"- {at: 1, do: reset, key: R}\n", "give one of 'do'"}}) {
+    std::ofstream(script) << text;
+    try {
+      load_script(script);
+      ADD_FAILURE() << "accepted: " << text;
+    } catch (const Error& e) {
+      EXPECT_NE(std::string(e.what()).find(script + ": event 1"), std::string::npos) << e.what();
+      EXPECT_NE(std::string(e.what()).find(expected), std::string::npos) << e.what();
+    }
+  }
   fs::remove_all(dir);
 }
 

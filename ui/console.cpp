@@ -1,6 +1,6 @@
 #include "ui/console.h"
 
-#include <GLFW/glfw3.h>  // key codes only (ImGui 1.86 indexes keys by GLFW code); no window calls here
+#include <GL/gl.h>  // the scene textures
 #include <imgui.h>
 #include <spdlog/spdlog.h>
 
@@ -142,25 +142,9 @@ std::vector<std::string> Console::take_screenshot_requests() {
 }
 
 std::vector<std::pair<std::string, std::string>> console_keys() {
-  return {{"T", "take over from the robot, or answer its query yourself"},
-          {"E", "let the scripted expert answer the query"},
-          {"H", "hand control back to the robot"},
-          {"Arrow keys", "drive: the target moves with the arrows (arm tasks: in the camera's ground plane)"},
-          {"PageUp / PageDown", "arm tasks: raise / lower the target"},
-          {"G", "arm tasks: close / open the gripper"},
-          {"C", "arm tasks: next camera (free, then the task's cameras)"},
-          {"Mouse on an arm scene", "left drag orbits, right drag pans, wheel zooms; Shift + left drag moves the target"},
-          {"Left mouse drag", "drag the target in the scene (takes over)"},
-          {"Gamepad", "left stick drives; A take over, B hand back, X scripted expert, Start pause"},
-          {"Space", "pause / resume"},
-          {"N", "single step while paused"},
-          {"R", "reset: end this episode (expert steps are kept) and start the next"},
-          {"S", "save the policy now (the data set is saved after every episode)"},
-          {"F", "show / hide the diffusion-loss field (2-D)"},
-          {"+ / -", "faster / slower"},
-          {"F12", "screenshot"},
-          {"F1 or ?", "this help"},
-          {"Esc", "quit (asks when an episode is in progress)"}};
+  std::vector<std::pair<std::string, std::string>> rows;
+  for (const Binding& b : bindings()) rows.emplace_back(b.keys_label, b.description);
+  return rows;
 }
 
 void Console::shutdown() {
@@ -218,7 +202,7 @@ void Console::frame(const FrameInput& in) {
     ++s.busy_frames;
   }
   drain(s);
-  for (int k : in.pressed) handle_key(s, k);
+  for (Command c : in.commands) execute(s, c);
   if (in.close_requested) {
     if (s.session->in_episode() && s.session->expert_acted() && !s.o.fixed_step) s.close_dialog = true;
     else s.quitting = true;

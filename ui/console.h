@@ -14,6 +14,7 @@
 #include <vector>
 
 #include "core/task_config.h"
+#include "ui/commands.h"
 
 namespace dd::ui {
 
@@ -34,7 +35,7 @@ struct ConsoleOptions {
 /// What the platform layer saw since the last frame.
 struct FrameInput {
   double dt = 1.0 / 60;              // seconds
-  std::vector<int> pressed;          // keys pressed (GLFW key codes), in order
+  std::vector<Command> commands;      // the operator's commands (keys and buttons through ui/commands.h), in order
   Eigen::Vector2d jog{0, 0};         // drive direction from held keys or a stick, each in [-1, 1]
   double lift = 0;                   // arm tasks: raise (+1) or lower (-1) the target
   bool close_requested = false;      // the window's close button
@@ -75,7 +76,8 @@ class Console {
   std::unique_ptr<State> s_;
 };
 
-/// Key bindings as (keys, what they do), for the help overlay and the README.
+/// Key bindings as (keys, what they do), for the help overlay and the README: the rows of
+/// ui/commands.h's table.
 std::vector<std::pair<std::string, std::string>> console_keys();
 
 }  // namespace dd::ui

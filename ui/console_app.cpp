@@ -86,7 +86,7 @@ int run_headless(ConsoleOptions options, const ConsoleRunOptions& run) {
           if (fired) e.start = frame + e.after;
         }
         if (e.start < 0 || frame < e.start) continue;
-        if (e.key >= 0 && frame == e.start) in.pressed.push_back(e.key);
+        if (e.command && frame == e.start) in.commands.push_back(*e.command);
         if (!e.hold.isZero() && frame < e.start + e.frames) in.jog += e.hold;
       }
       io.DeltaTime = static_cast<float>(dt);
@@ -123,11 +123,12 @@ int run_headless(ConsoleOptions options, const ConsoleRunOptions& run) {
 
 namespace {
 
-std::vector<int>* g_keys = nullptr;
+std::vector<Command>* g_commands = nullptr;
 
 void key_callback(GLFWwindow*, int key, int, int action, int) {
   // ImGui 1.86 has no input queue: keep every press, however short, for the next frame
-  if (g_keys && (action == GLFW_PRESS || (action == GLFW_REPEAT && (key == GLFW_KEY_N)))) g_keys->push_back(key);
+  if (!g_commands || (action != GLFW_PRESS && action != GLFW_REPEAT)) return;
+  if (auto c = command_for_key(key, action == GLFW_REPEAT)) g_commands->push_back(*c);
 }
 
 void glfw_error(int code, const char* what) { spdlog::error("GLFW error {}: {}", code, what); }
@@ -145,8 +146,8 @@ int run_window(ConsoleOptions options, const ConsoleRunOptions& run) {
   }
   glfwMakeContextCurrent(window);
   glfwSwapInterval(1);
-  std::vector<int> keys;
-  g_keys = &keys;
+  std::vector<Command> commands;
+  g_commands = &commands;
   glfwSetKeyCallback(window, key_callback);  // installed first, so ImGui's backend chains to it
 
   IMGUI_CHECKVERSION();
@@ -167,7 +168,7 @@ int run_window(ConsoleOptions options, const ConsoleRunOptions& run) {
       const auto now = std::chrono::steady_clock::now();
       in.dt = std::chrono::duration<double>(now - last).count();
       last = now;
-      in.pressed.swap(keys);
+      in.commands.swap(commands);
       auto down = [&](int key) { return glfwGetKey(window, key) == GLFW_PRESS ? 1 : 0; };
       in.jog = Eigen::Vector2d(down(GLFW_KEY_RIGHT) - down(GLFW_KEY_LEFT), down(GLFW_KEY_UP) - down(GLFW_KEY_DOWN));
       in.lift = down(GLFW_KEY_PAGE_UP) - down(GLFW_KEY_PAGE_DOWN);
@@ -175,10 +176,8 @@ int run_window(ConsoleOptions options, const ConsoleRunOptions& run) {
       if (glfwJoystickIsGamepad(GLFW_JOYSTICK_1) && glfwGetGamepadState(GLFW_JOYSTICK_1, &pad)) {
         const float x = pad.axes[GLFW_GAMEPAD_AXIS_LEFT_X], y = -pad.axes[GLFW_GAMEPAD_AXIS_LEFT_Y];
         if (std::abs(x) > 0.15f || std::abs(y) > 0.15f) in.jog = Eigen::Vector2d(x, y);
-        const std::pair<int, int> map[] = {{GLFW_GAMEPAD_BUTTON_A, GLFW_KEY_T}, {GLFW_GAMEPAD_BUTTON_B, GLFW_KEY_H},
-                                           {GLFW_GAMEPAD_BUTTON_X, GLFW_KEY_E}, {GLFW_GAMEPAD_BUTTON_START, GLFW_KEY_SPACE}};
-        for (auto [button, key] : map) {
-          if (pad.buttons[button] && !previous_buttons[button]) in.pressed.push_back(key);
+        for (auto [button, command] : gamepad_bindings()) {
+          if (pad.buttons[button] && !previous_buttons[button]) in.commands.push_back(command);
           previous_buttons[button] = pad.buttons[button];
         }
       }
@@ -200,7 +199,7 @@ int run_window(ConsoleOptions options, const ConsoleRunOptions& run) {
     ImGui_ImplOpenGL3_Shutdown();
     ImGui_ImplGlfw_Shutdown();
   }
-  g_keys = nullptr;
+  g_commands = nullptr;
   ImGui::DestroyContext();
   glfwDestroyWindow(window);
   glfwTerminate();

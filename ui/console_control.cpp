@@ -1,7 +1,6 @@
-// The controller: session events, keys, the operator's actions and the worker's jobs, all on the
-// frame thread. The only code that changes the session (the worker computes an update's report; its
+// The controller: session events, the operator's commands (ui/commands.h) and actions, and the
+// worker's jobs, all on the frame thread. The only code that changes the session (the worker computes an update's report; its
 // result is applied here, ui/worker.h).
-#include <GLFW/glfw3.h>  // key codes only (ImGui 1.86 indexes keys by GLFW code); no window calls here
 #include <spdlog/spdlog.h>
 
 #include <algorithm>
@@ -171,63 +170,61 @@ void take_over(Console::State& s) {
   }
 }
 
-void handle_key(Console::State& s, int key) {
-  const bool session_key = key == GLFW_KEY_T || key == GLFW_KEY_H || key == GLFW_KEY_R || key == GLFW_KEY_S || key == GLFW_KEY_E;
-  if (s.deciding() && session_key) {  // acted on as soon as the decision is in
-    s.deferred_keys.push_back(key);
+void execute(Console::State& s, Command c) {
+  if (s.deciding() && binding(c).changes_session) {  // acted on as soon as the decision is in
+    s.deferred.push_back(c);
     return;
   }
   const bool idle = !s.busy();
-  switch (key) {
-    case GLFW_KEY_T: if (idle) take_over(s); break;
-    case GLFW_KEY_E:
+  switch (c) {
+    case Command::kTakeOver: if (idle) take_over(s); break;
+    case Command::kExpertAnswers:
       if (s.awaiting) {
         s.answering = Console::State::Answer::kScripted;
         s.awaiting = false;
         s.log->note("scripted_expert_answers", "episode " + std::to_string(s.session->episode()));
       }
       break;
-    case GLFW_KEY_H:
+    case Command::kHandBack:
       if (idle && s.session->hand_back()) drain(s);
       break;
-    case GLFW_KEY_SPACE: s.paused = !s.paused; break;
-    case GLFW_KEY_N: s.paused = true; s.step_once = true; break;
-    case GLFW_KEY_R:
+    case Command::kPause: s.paused = !s.paused; break;
+    case Command::kStep: s.paused = true; s.step_once = true; break;
+    case Command::kReset:
       if (idle && s.session->in_episode()) {
         s.session->end_episode_now();
         s.log->note("reset", "episode " + std::to_string(s.session->episode()));
         drain(s);
       }
       break;
-    case GLFW_KEY_S: if (idle) save_policy(s); break;
-    case GLFW_KEY_G: s.op_grip = s.op_grip > 0.5 ? 0.0 : 1.0; break;
-    case GLFW_KEY_C:
+    case Command::kSave: if (idle) save_policy(s); break;
+    case Command::kToggleGrip: s.op_grip = s.op_grip > 0.5 ? 0.0 : 1.0; break;
+    case Command::kNextCamera:
       if (s.arm) {
         const int n = s.arm->model()->ncam;
         s.camera = s.camera + 1 >= n ? -1 : s.camera + 1;
       }
       break;
-    case GLFW_KEY_F:
+    case Command::kToggleField:
       s.show_field = !s.show_field;
       if (s.show_field && !s.field_valid) s.field_wanted = true;
       break;
-    case GLFW_KEY_EQUAL: case GLFW_KEY_KP_ADD: s.o.speed = std::min(s.o.speed * 2, 16.0); break;
-    case GLFW_KEY_MINUS: case GLFW_KEY_KP_SUBTRACT: s.o.speed = std::max(s.o.speed / 2, 0.125); break;
-    case GLFW_KEY_F1: case GLFW_KEY_SLASH: s.show_help = !s.show_help; break;
-    case GLFW_KEY_F12: s.shots.push_back("screenshot_" + std::to_string(++s.screenshot_count)); break;
-    case GLFW_KEY_ENTER: case GLFW_KEY_KP_ENTER:
+    case Command::kFaster: s.o.speed = std::min(s.o.speed * 2, 16.0); break;
+    case Command::kSlower: s.o.speed = std::max(s.o.speed / 2, 0.125); break;
+    case Command::kHelp: s.show_help = !s.show_help; break;
+    case Command::kScreenshot: s.shots.push_back("screenshot_" + std::to_string(++s.screenshot_count)); break;
+    case Command::kConfirm:
       if (s.close_dialog) {
         s.close_dialog = false;
         s.quitting = true;
       }
       break;
-    case GLFW_KEY_ESCAPE:
+    case Command::kBack:
       if (s.close_dialog) s.close_dialog = false;
       else if (s.show_help) s.show_help = false;
       else if (s.session->in_episode() && s.session->expert_acted()) s.close_dialog = true;
       else s.quitting = true;
       break;
-    default: break;
   }
 }
 
@@ -266,9 +263,9 @@ void advance(Console::State& s, double dt) {
       // decide inline: same results, one frame per step)
       if (s.decision_ready) {
         s.decision_ready = false;
-        std::vector<int> keys;
-        keys.swap(s.deferred_keys);
-        for (int k : keys) handle_key(s, k);
+        std::vector<Command> deferred;
+        deferred.swap(s.deferred);
+        for (Command c : deferred) execute(s, c);
         if (s.session->decision_due()) s.session->provide_decision(std::move(s.decision), s.decision_s);
       } else {
         s.session->prepare();

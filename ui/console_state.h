@@ -139,7 +139,7 @@ struct Console::State {
   MethodDecision decision;  // a decision the worker computed, handed to the session when ready
   double decision_s = 0;
   bool decision_ready = false;
-  std::vector<int> deferred_keys;  // session keys pressed while a decision was being computed
+  std::vector<Command> deferred;  // commands that change the session, given while a decision was being computed
   bool busy() const { return worker.busy(); }
   bool updating() const { return worker.busy() && worker.job() != WorkerJob::kDecision; }
   bool deciding() const { return worker.job() == WorkerJob::kDecision; }
@@ -199,7 +199,7 @@ void start_field(Console::State& s);
 void save_policy(Console::State& s);
 void answer_as_operator(Console::State& s);
 void take_over(Console::State& s);
-void handle_key(Console::State& s, int key);
+void execute(Console::State& s, Command c);  // one operator command
 void advance(Console::State& s, double dt);  // steps the session as far as this frame allows
 Vec arm_operator_action(Console::State& s);  // the operator's arm action (keys, mouse) for ConsoleExpert
 

@@ -1,26 +1,13 @@
 #include "ui/script.h"
 
-#include <GLFW/glfw3.h>
 #include <yaml-cpp/yaml.h>
 
-#include <cctype>
 #include <filesystem>
-#include <map>
 
 #include "core/config.h"
 
 namespace dd::ui {
 namespace {
-
-int key_code(const std::string& name, const std::string& where) {
-  static const std::map<std::string, int> named = {
-      {"Space", GLFW_KEY_SPACE}, {"Escape", GLFW_KEY_ESCAPE}, {"F1", GLFW_KEY_F1}, {"F12", GLFW_KEY_F12},
-      {"Plus", GLFW_KEY_EQUAL},  {"Minus", GLFW_KEY_MINUS}};
-  if (auto it = named.find(name); it != named.end()) return it->second;
-  if (name.size() == 1 && std::isalpha(static_cast<unsigned char>(name[0])))
-    return GLFW_KEY_A + (std::toupper(static_cast<unsigned char>(name[0])) - 'A');
-  throw Error(where + ": unknown key '" + name + "' (letters, Space, Escape, F1, F12, Plus, Minus)");
-}
 
 Eigen::Vector2d hold_direction(const std::string& name, const std::string& where) {
   if (name == "Up") return {0, 1};
@@ -41,7 +28,7 @@ std::vector<ScriptEvent> load_script(const std::string& path) {
   } catch (const YAML::Exception& e) {
     throw Error(path + ": malformed YAML: " + e.what());
   }
-  if (!root.IsSequence()) throw Error(path + ": a script is a list of events, e.g. - {on: query, after: 8, key: T}");
+  if (!root.IsSequence()) throw Error(path + ": a script is a list of events, e.g. - {on: query, after: 8, do: take_over}");
   std::vector<ScriptEvent> out;
   for (size_t i = 0; i < root.size(); ++i) {
     const YAML::Node n = root[i];
@@ -54,10 +41,14 @@ std::vector<ScriptEvent> load_script(const std::string& path) {
         if (k == "at") e.at = kv.second.as<int>();
         else if (k == "on") e.on = kv.second.as<std::string>();
         else if (k == "after") e.after = kv.second.as<int>();
-        else if (k == "key") e.key = key_code(kv.second.as<std::string>(), where);
+        else if (k == "do" || k == "key") {
+          if (e.command) throw Error(where + ": give one of 'do' (a command) or 'key'");
+          const std::string v = kv.second.as<std::string>();
+          e.command = k == "do" ? command_named(v, where + ": field 'do'") : command_for_key_name(v, where + ": field 'key'");
+        }
         else if (k == "hold") e.hold = hold_direction(kv.second.as<std::string>(), where);
         else if (k == "frames") e.frames = kv.second.as<int>();
-        else throw Error(where + ": unknown field '" + k + "' (at, on, after, key, hold, frames)");
+        else throw Error(where + ": unknown field '" + k + "' (at, on, after, do, key, hold, frames)");
       }
     } catch (const YAML::Exception& ex) {
       throw Error(where + ": " + ex.what());
@@ -65,7 +56,7 @@ std::vector<ScriptEvent> load_script(const std::string& path) {
     if ((e.at < 0) == e.on.empty()) throw Error(where + ": give exactly one of 'at' (a frame) or 'on' (an event)");
     if (!e.on.empty() && e.on != "query" && e.on != "update" && e.on != "takeover" && e.on != "episode")
       throw Error(where + ": field 'on' must be query, update, takeover or episode, not '" + e.on + "'");
-    if (e.key < 0 && e.hold.isZero()) throw Error(where + ": give a 'key' or a 'hold'");
+    if (!e.command && e.hold.isZero()) throw Error(where + ": give a command ('do') or a 'hold'");
     if (e.frames < 1 || e.after < 0) throw Error(where + ": 'frames' must be >= 1 and 'after' >= 0");
     e.start = e.at;
     out.push_back(e);
