@@ -1,5 +1,6 @@
 #!/bin/bash
-# The real console window under Xvfb: keys sent with xdotool take over from the robot and hand back;
+# The real console window under Xvfb: keys sent with xdotool take over from the robot and hand back,
+# and so does dragging a target in the scene with the mouse;
 # the session log, the data set and an F12 screenshot show that it happened. Escape then Enter quits,
 # saving the episode in progress.
 #   usage: gui_xvfb.sh PATH/TO/diffdagger
@@ -38,6 +39,18 @@ wait_for '"control":"operator"' 5
 xdotool keydown Right; sleep 0.6; xdotool keyup Right
 xdotool key h
 wait_for '"event":"hand_back"' 10
+# dragging a target in the scene (the left panel) takes over too: the view gives the command, the
+# controller runs it (retried, as the key above)
+takeovers() { grep -c '"control":"operator".*"event":"takeover"' "$log" || true; }
+for _ in $(seq 1 20); do
+  xdotool mousemove --window "$wid" 360 420 mousedown 1
+  sleep 0.2; xdotool mousemove --window "$wid" 420 400; sleep 0.4
+  xdotool mouseup 1
+  sleep 0.3
+  [ "$(takeovers)" -ge 2 ] && break
+done
+[ "$(takeovers)" -ge 2 ] || { echo "dragging in the scene did not take over"; exit 1; }
+xdotool key h
 xdotool key F12
 for _ in $(seq 1 25); do [ -f "$work/shots/screenshot_1.png" ] && break; sleep 0.2; done
 xdotool key Escape   # asks: the episode holds operator steps

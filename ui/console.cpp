@@ -202,7 +202,10 @@ void Console::frame(const FrameInput& in) {
     ++s.busy_frames;
   }
   drain(s);
-  for (Command c : in.commands) execute(s, c);
+  std::vector<Command> commands;
+  commands.swap(s.from_views);
+  commands.insert(commands.end(), in.commands.begin(), in.commands.end());
+  for (Command c : commands) execute(s, c);
   if (in.close_requested) {
     if (s.session->in_episode() && s.session->expert_acted() && !s.o.fixed_step) s.close_dialog = true;
     else s.quitting = true;

@@ -113,7 +113,7 @@ void draw_mujoco(Console::State& s, ImVec2 origin, float side) {
         s.drag_target = Eigen::Vector2d(p[0], p[1]);
         if (!s.dragging) {
           s.dragging = true;
-          if (!s.operator_drives()) take_over(s);
+          if (!s.operator_drives()) s.from_views.push_back(Command::kTakeOver);  // the controller acts on it
         }
       }
     } else if (ImGui::IsMouseDragging(ImGuiMouseButton_Left)) {
@@ -157,7 +157,7 @@ void scene_view(Console::State& s, ImVec2 pos, ImVec2 size) {
       s.drag_target = s.scene->pixel_to_world((m.x - origin.x) * k, (m.y - origin.y) * k);
       if (!s.dragging) {
         s.dragging = true;
-        if (!s.operator_drives()) take_over(s);
+        if (!s.operator_drives()) s.from_views.push_back(Command::kTakeOver);  // the controller acts on it
       }
     } else if (!ImGui::IsMouseDown(ImGuiMouseButton_Left)) {
       s.dragging = false;

@@ -139,6 +139,7 @@ struct Console::State {
   MethodDecision decision;  // a decision the worker computed, handed to the session when ready
   double decision_s = 0;
   bool decision_ready = false;
+  std::vector<Command> from_views;  // commands the views gave (dragging a target takes over), run at the next frame's start
   std::vector<Command> deferred;  // commands that change the session, given while a decision was being computed
   bool busy() const { return worker.busy(); }
   bool updating() const { return worker.busy() && worker.job() != WorkerJob::kDecision; }
