@@ -7,6 +7,8 @@
 #pragma once
 
 #include <cstdint>
+#include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -20,6 +22,32 @@ struct StepResult {
   bool success = false;  // the task is achieved
   bool failed = false;   // ended abnormally (non-finite action, unstable simulation)
   std::string warning;   // why it failed, when it did
+};
+
+class Env;
+
+/// What an operator gives at one step, whatever the device (keys, mouse, gamepad): the console fills
+/// it in, and the task's Teleoperation turns it into an action.
+struct OperatorInput {
+  Eigen::Vector2d jog{0, 0};      // drive direction in the view's ground plane, each in [-1, 1]
+  double lift = 0;                // raise (+1) or lower (-1), where the task has a height
+  bool has_target = false;        // a point dragged on the ground plane (world x, y)
+  Eigen::Vector2d target{0, 0};
+  Eigen::Vector2d forward{1, 0};  // the view's forward direction on the ground (world x, y, unit)
+};
+
+/// How an operator drives one task: operator input in, the task's action out. Each task contributes
+/// its own (Env::teleoperation), so that a console knows no task's internals.
+class Teleoperation {
+ public:
+  virtual ~Teleoperation() = default;
+  /// A takeover starts: the next action starts from the env's state as it is then.
+  virtual void begin() = 0;
+  virtual Vec action(const Env& env, const OperatorInput& input) = 0;
+  /// Closes an open gripper, opens a closed one (tasks without one ignore it).
+  virtual void toggle_grip() {}
+  /// The commanded point in world coordinates, for display (none before the first action).
+  virtual std::optional<Eigen::Vector3d> target() const { return std::nullopt; }
 };
 
 class Env {
@@ -52,6 +80,9 @@ class Env {
   /// The full simulation state, to restore later (e.g. to replay a takeover).
   virtual std::vector<double> save_state() const = 0;
   virtual void restore_state(const std::vector<double>& state) = 0;
+
+  /// How an operator drives this task (null: it cannot be teleoperated).
+  virtual std::unique_ptr<Teleoperation> teleoperation() const { return nullptr; }
 };
 
 /// An expert that acts in an Env (a scripted controller, a planner, or a human at the console).

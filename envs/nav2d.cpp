@@ -192,4 +192,25 @@ Nav2dRegion Nav2dRegions::label(const Vec2& p) const {
   return Nav2dRegion::kNone;
 }
 
+namespace {
+
+class Nav2dTeleoperation : public Teleoperation {
+ public:
+  void begin() override {}
+  Vec action(const Env& env, const OperatorInput& in) override {
+    const Vec obs = env.observation();  // the position comes first in both observation layouts
+    const Eigen::Vector2d p(obs[0], obs[1]);
+    target_ = in.has_target ? in.target : Eigen::Vector2d(p + 0.2 * in.jog);
+    return Vec(target_.cast<float>());
+  }
+  std::optional<Eigen::Vector3d> target() const override { return Eigen::Vector3d(target_.x(), target_.y(), 0); }
+
+ private:
+  Eigen::Vector2d target_{0, 0};
+};
+
+}  // namespace
+
+std::unique_ptr<Teleoperation> Nav2dEnv::teleoperation() const { return std::make_unique<Nav2dTeleoperation>(); }
+
 }  // namespace dd

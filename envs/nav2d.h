@@ -64,6 +64,8 @@ class Nav2dEnv : public Env {
   int steps() const override { return steps_; }
   std::vector<double> save_state() const override;
   void restore_state(const std::vector<double>& state) override;
+  /// The operator commands a target position: the dragged point, or a step along the jog direction.
+  std::unique_ptr<Teleoperation> teleoperation() const override;
 
   const Nav2dConfig& config() const { return config_; }
   Vec2 position() const;

@@ -82,17 +82,12 @@ Console::Console(const ConsoleOptions& options) : s_(std::make_unique<State>()) 
   s.env = make_env(c.task);
   s.nav = dynamic_cast<Nav2dEnv*>(s.env.get());
   s.arm = dynamic_cast<mj::ArmEnv*>(s.env.get());
+  s.teleop = s.env->teleoperation();
+  if (!s.teleop) throw Error("console: task " + c.task + " cannot be driven by an operator (its Env has no teleoperation)");
   s.scripted = make_expert(c.task, s.o.expert_mode.empty() ? c.expert : s.o.expert_mode);
   s.expert = std::make_unique<ConsoleExpert>(
       *s.scripted, [&s] { return s.operator_drives() && !s.o.scripted_operator; },
-      [&s](const Env& env) -> Vec {
-        if (s.arm) return arm_operator_action(s);
-        // the operator commands a target position: the dragged point, or a step along the jog direction
-        const Vec obs = env.observation();
-        const Eigen::Vector2d p(obs[0], obs[1]);
-        const Eigen::Vector2d t = s.dragging ? s.drag_target : Eigen::Vector2d(p + 0.2 * s.jog);
-        return Vec(Eigen::Vector2d(t).cast<float>());
-      });
+      [&s](const Env& env) { return s.teleop->action(env, operator_input(s)); });
   MethodConfig method_config = c.method;
   method_config.compare_scores.clear();  // an RQ1 instrument (eval); the console gates on the main rule
   s.method = make_method(s.o.method, c.policy, method_config, c.dagger.seed);

@@ -8,7 +8,6 @@
 #include <cmath>
 #include <filesystem>
 
-#include "envs/mujoco/pick_place_expert.h"
 #include "ui/console_state.h"
 
 namespace dd::ui::console {
@@ -44,7 +43,7 @@ void handle_event(Console::State& s, const SessionEvent& e) {
     case EventKind::kTakeover:
       if (e.control == Control::kOperator) {
         ++s.takeovers;
-        s.op_valid = false;
+        s.teleop->begin();
         s.answering = Console::State::Answer::kOperator;
         s.takeover_steps = 0;
       } else if (e.control == Control::kExpertTimeout) {
@@ -153,7 +152,7 @@ void save_policy(Console::State& s) {
 
 void answer_as_operator(Console::State& s) {
   s.answering = Console::State::Answer::kOperator;
-  s.op_valid = false;
+  s.teleop->begin();
   s.awaiting = false;
   s.takeover_steps = 0;
   s.operator_countdown = -1;
@@ -198,7 +197,7 @@ void execute(Console::State& s, Command c) {
       }
       break;
     case Command::kSave: if (idle) save_policy(s); break;
-    case Command::kToggleGrip: s.op_grip = s.op_grip > 0.5 ? 0.0 : 1.0; break;
+    case Command::kToggleGrip: s.teleop->toggle_grip(); break;
     case Command::kNextCamera:
       if (s.arm) {
         const int n = s.arm->model()->ncam;
@@ -299,42 +298,18 @@ void advance(Console::State& s, double dt) {
 }
 
 
-// The operator drives an arm task: a TCP target that the arrow keys move in the camera's ground
-// plane, PageUp/PageDown raise and lower, Shift+drag places; G toggles the gripper.
-Vec arm_operator_action(Console::State& s) {
-  const mj::ArmEnv& env = *s.arm;
-  const Eigen::Vector3d tcp = env.arm().tcp_pos(env.data());
-  if (!s.op_valid) {
-    s.op_target = tcp;
-    s.op_yaw = mj::tool_yaw(env.arm().tcp_rot(env.data()));
-    s.op_grip = env.arm().opening(env.data()) < 0.06 ? 1.0 : 0.0;
-    s.op_valid = true;
+// What the operator's devices give this step, for the task's teleoperation.
+OperatorInput operator_input(const Console::State& s) {
+  OperatorInput in;
+  in.jog = s.jog;
+  in.lift = s.lift;
+  in.has_target = s.dragging;
+  in.target = s.drag_target;
+  if (s.arm && s.camera < 0) {  // the free camera's forward direction on the ground; fixed cameras look along x
+    const double az = s.free_cam.azimuth * M_PI / 180;
+    in.forward = Eigen::Vector2d(std::cos(az), std::sin(az));
   }
-  if (!s.dragging) {
-    Eigen::Vector2d fwd(1, 0);
-    if (s.camera < 0) {
-      const double az = s.free_cam.azimuth * M_PI / 180;
-      fwd = Eigen::Vector2d(std::cos(az), std::sin(az));
-    }
-    const Eigen::Vector2d right(fwd.y(), -fwd.x());
-    const Eigen::Vector2d d = (fwd * s.jog.y() + right * s.jog.x()) * 0.01;
-    s.op_target += Eigen::Vector3d(d.x(), d.y(), 0.01 * s.lift);
-  } else {
-    s.op_target.head<2>() = s.drag_target;
-  }
-  s.op_target.z() = std::clamp(s.op_target.z(), 0.0, 0.5);
-  if ((s.op_target - tcp).norm() > 0.08) s.op_target = tcp + (s.op_target - tcp).normalized() * 0.08;  // stay reachable
-  const Eigen::Matrix3d R = mj::tool_down(s.op_yaw);
-  if (env.control() == mj::ArmControl::kEndEffectorPose) {
-    Vec a(10);
-    a.head<3>() = s.op_target.cast<float>();
-    a.segment<6>(3) = mj::rot6d(R).cast<float>();
-    a[9] = static_cast<float>(s.op_grip);
-    return a;
-  }
-  const mj::Vec7 dq = (env.ik_targets(s.op_target, R) - env.arm().q(env.data())).cwiseMax(-env.max_joint_step).cwiseMin(env.max_joint_step);
-  return dq.cast<float>();
+  return in;
 }
-
 
 }  // namespace dd::ui::console

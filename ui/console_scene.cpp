@@ -82,8 +82,8 @@ void draw_mujoco(Console::State& s, ImVec2 origin, float side) {
       const float a = r < s.session->chunk_pos() ? 0.25f : 0.9f;
       markers.push_back({{chunk(r, 0), chunk(r, 1), chunk(r, 2)}, 0.006, {0.45f, 0.8f, 1.f, a}});
     }
-  if (s.operator_drives() && !s.o.scripted_operator && s.op_valid)
-    markers.push_back({{s.op_target.x(), s.op_target.y(), s.op_target.z()}, 0.012, {0.7f, 0.42f, 0.91f, 0.9f}});
+  if (s.operator_drives() && !s.o.scripted_operator)
+    if (const auto t = s.teleop->target()) markers.push_back({{t->x(), t->y(), t->z()}, 0.012, {0.7f, 0.42f, 0.91f, 0.9f}});
   const int px = std::max(64, static_cast<int>(side));
   // MuJoCo's renderer is the costly part of a frame on a software GL: render only when the picture
   // changes (the simulation stepped, the camera or a marker moved), not while a policy update runs

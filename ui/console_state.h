@@ -125,9 +125,8 @@ struct Console::State {
   std::vector<double> mj_key;  // what the texture shows (re-rendered when it changes)
   FreeCamera free_cam;
   int camera = -1;  // -1: the free camera, else the model's camera index
-  Eigen::Vector3d op_target{0, 0, 0};
-  bool op_valid = false;
-  double op_grip = 0, op_yaw = 0, lift = 0;
+  std::unique_ptr<Teleoperation> teleop;  // the task's: operator input to action
+  double lift = 0;
 
   // events from the session (either thread), handled on the frame thread
   std::mutex mu;
@@ -202,7 +201,7 @@ void answer_as_operator(Console::State& s);
 void take_over(Console::State& s);
 void execute(Console::State& s, Command c);  // one operator command
 void advance(Console::State& s, double dt);  // steps the session as far as this frame allows
-Vec arm_operator_action(Console::State& s);  // the operator's arm action (keys, mouse) for ConsoleExpert
+OperatorInput operator_input(const Console::State& s);  // what the operator's devices give this step
 
 // console_scene.cpp
 void scene_view(Console::State& s, ImVec2 pos, ImVec2 size);

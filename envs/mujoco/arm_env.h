@@ -34,6 +34,10 @@ class ArmEnv : public Env {
   int steps() const override { return steps_; }
   std::vector<double> save_state() const override;
   void restore_state(const std::vector<double>& state) override;
+  /// A TCP target the operator moves (jog in the view's ground plane, lift, or a dragged point) with
+  /// the tool pointing down at the yaw it had when the takeover began, and a gripper to toggle
+  /// (envs/mujoco/arm_teleoperation.cpp).
+  std::unique_ptr<Teleoperation> teleoperation() const override;
 
   const mjModel* model() const { return model_.get(); }
   const mjData* data() const { return data_.get(); }
