@@ -435,4 +435,36 @@ TEST(Mujoco, RegistryBuildsTheArmTasks) {
   }
 }
 
+TEST(ArmTeleoperation, TheTargetStartsAtTheToolMovesWithTheViewAndTheGripperToggles) {
+  StackEnv env;
+  env.reset(3);
+  auto teleop = env.teleoperation();
+  ASSERT_TRUE(teleop);
+  EXPECT_FALSE(teleop->target());  // nothing commanded before the first action
+  teleop->begin();
+  const Eigen::Vector3d tcp = env.arm().tcp_pos(env.data());
+  OperatorInput in;
+  Vec a = teleop->action(env, in);
+  ASSERT_EQ(a.size(), env.action_dim());
+  EXPECT_LT((a.head<3>().cast<double>() - tcp).norm(), 1e-5);  // holds the tool where it is
+  const float grip = a[9];
+  // jogging "up" moves the target 1 cm along the view's forward direction, here world -y
+  in.forward = Eigen::Vector2d(0, -1);
+  in.jog = Eigen::Vector2d(0, 1);
+  a = teleop->action(env, in);
+  EXPECT_NEAR(a[1], tcp.y() - 0.01, 1e-5);
+  EXPECT_NEAR(a[0], tcp.x(), 1e-5);
+  // a dragged target far away is approached within reach (8 cm of the tool)
+  in = OperatorInput{};
+  in.has_target = true;
+  in.target = tcp.head<2>() + Eigen::Vector2d(0.5, 0);
+  a = teleop->action(env, in);
+  EXPECT_NEAR((a.head<3>().cast<double>() - tcp).norm(), 0.08, 1e-4);
+  teleop->toggle_grip();
+  EXPECT_NE(teleop->action(env, OperatorInput{})[9], grip);
+  // a new takeover starts again from the tool
+  teleop->begin();
+  EXPECT_LT((teleop->action(env, OperatorInput{}).head<3>().cast<double>() - tcp).norm(), 1e-5);
+}
+
 }  // namespace dd::mj

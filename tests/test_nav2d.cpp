@@ -160,4 +160,23 @@ TEST(Nav2dRegions, LabelsHandPlacedStates) {
   EXPECT_EQ(region_name(Nav2dRegion::kOutOfDistribution), "ood");
 }
 
+TEST(Nav2dEnv, TeleoperationCommandsATargetPosition) {
+  Nav2dEnv env;
+  env.reset(4);
+  auto teleop = env.teleoperation();
+  ASSERT_TRUE(teleop);
+  teleop->begin();
+  OperatorInput in;
+  in.jog = Eigen::Vector2d(1, 0);
+  Vec a = teleop->action(env, in);
+  ASSERT_EQ(a.size(), env.action_dim());
+  EXPECT_NEAR(a[0], env.position().x() + 0.2, 1e-5);  // a step along the jog
+  EXPECT_NEAR(a[1], env.position().y(), 1e-5);
+  in.has_target = true;
+  in.target = Eigen::Vector2d(0.3, -0.4);
+  a = teleop->action(env, in);
+  EXPECT_FLOAT_EQ(a[0], 0.3f);  // the dragged point itself
+  EXPECT_FLOAT_EQ(a[1], -0.4f);
+}
+
 }  // namespace dd
