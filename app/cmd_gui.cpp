@@ -19,7 +19,7 @@ Command add_gui(CLI::App& app) {
   };
   auto o = std::make_shared<Opts>();
   cmd->add_option("--task", o->task, "task: nav2d, nav2d_random, stack, push, plug")->capture_default_str();
-  cmd->add_option("--method", o->method, "query rule")->capture_default_str()->check(CLI::IsMember({"diff", "ensemble", "thrifty", "bc"}));
+  cmd->add_option("--method", o->method, "query rule")->capture_default_str()->check(CLI::IsMember(method_names()));
   cmd->add_option("--config", o->config, "YAML config file overriding the task's preset");
   cmd->add_option("--expert", o->expert, "scripted expert mode (nav2d: cw, ccw, mixed; push: those and alternate; push, plug: +noise records demonstrations with execution noise; default: the preset's)");
   cmd->add_option("--seed", o->seed, "random seed")->capture_default_str();
@@ -46,7 +46,7 @@ Command add_gui(CLI::App& app) {
       e.apply_quick(c.config);
     }
     if (!o->policies.empty()) {  // the session starts from these policies: their network, not the preset's
-      const size_t want = o->method == "ensemble" || o->method == "thrifty" ? static_cast<size_t>(c.config.method.members) : 1;
+      const size_t want = method_info(o->method).ensemble ? static_cast<size_t>(c.config.method.members) : 1;
       if (o->policies.size() != want)
         throw Error(fmt::format("gui --policy: method {} adopts {} checkpoint{} (one per member for ensemble and thrifty), got {}",
                                 o->method, want, want == 1 ? "" : "s", o->policies.size()));

@@ -14,7 +14,7 @@ Command add_dagger(CLI::App& app) {
   };
   auto o = std::make_shared<Opts>();
   cmd->add_option("--task", o->task, "task: nav2d, nav2d_random, stack, push, plug")->capture_default_str();
-  cmd->add_option("--method", o->method, "query rule")->capture_default_str()->check(CLI::IsMember({"diff", "ensemble", "thrifty", "bc"}));
+  cmd->add_option("--method", o->method, "query rule")->capture_default_str()->check(CLI::IsMember(method_names()));
   cmd->add_option("--out", o->out, "output folder: dataset.hdf5, checkpoints/, queries.jsonl, config.json")->required();
   cmd->add_option("--config", o->config, "YAML config file overriding the task's preset");
   cmd->add_option("--expert", o->expert, "expert mode (nav2d: cw, ccw, mixed; push: those and alternate; push, plug: +noise records demonstrations with execution noise; default: the preset's)");
@@ -50,7 +50,7 @@ Command add_eval(CLI::App& app) {
   cmd->add_flag("--quick", o->quick, "tiny budgets, for a smoke test (minutes)");
   cmd->add_option("--seeds", o->eval.seeds, "seeds per method")->capture_default_str()->check(CLI::Range(1, 20));
   cmd->add_option("--episodes", o->eval.episodes, "rollouts per measurement")->capture_default_str()->check(CLI::PositiveNumber);
-  cmd->add_option("--methods", o->eval.methods, "methods to compare")->delimiter(',')->check(CLI::IsMember({"diff", "ensemble", "thrifty", "bc"}));
+  cmd->add_option("--methods", o->eval.methods, "methods to compare")->delimiter(',')->check(CLI::IsMember(method_names()));
   cmd->add_option("--jobs", o->eval.jobs,
                   "cells (method, seed, RQ1 or RQ2) to run at a time, each in a process of its own with one thread; logs in OUT/logs "
                   "(1: one after another in this process, with --threads)")

@@ -90,22 +90,15 @@ std::string outcome_counts(const std::vector<RolloutResult>& results) {
 }  // namespace
 
 std::string method_title(const std::string& m) {
-  if (m == "diff") return "Diff-DAgger";
-  if (m == "ensemble") return "Ensemble-DAgger";
-  if (m == "thrifty") return "Thrifty-DAgger";
-  if (m == "bc") return "BC";
-  return m;
+  for (const MethodInfo& i : method_registry())
+    if (i.name == m) return i.title;
+  return m;  // a folder's own name (plot_runs: a lone DAgger run)
 }
 
-namespace {
-const ui::Rgb kMethodColors[] = {{60, 110, 210}, {235, 120, 50}, {150, 90, 190}, {130, 130, 130}};
-}  // namespace
-
 ui::Rgb method_color(const std::string& m) {
-  if (m == "diff") return kMethodColors[0];
-  if (m == "ensemble") return kMethodColors[1];
-  if (m == "thrifty") return kMethodColors[2];
-  return kMethodColors[3];
+  for (const MethodInfo& i : method_registry())
+    if (i.name == m) return i.color;
+  return {130, 130, 130};
 }
 
 bool stored_config_matches(const std::string& path, const ExperimentConfig& config) {
@@ -742,13 +735,14 @@ std::string EvalCell::stem() const { return fmt::format("{}_seed{}_{}", method, 
 std::vector<EvalCell> eval_cells(const std::vector<std::string>& methods, int seeds) {
   // rough cost: ensembles train 5 members; a DAgger run trains about as much as BC on N_f
   auto cost = [](const EvalCell& c) {
-    const double members = (c.method == "ensemble" || c.method == "thrifty") ? 5 : 1;
-    return members * (c.rq1 ? 1.0 : 2.0) + (c.method == "thrifty" ? 0.5 : 0.0);
+    const MethodInfo& m = method_info(c.method);
+    const double members = m.ensemble ? 5 : 1;
+    return members * (c.rq1 ? 1.0 : 2.0) + (m.learns_risk ? 0.5 : 0.0);
   };
   std::vector<EvalCell> cells;
   for (int s = 0; s < seeds; ++s)
     for (const std::string& m : methods) {
-      if (m != "bc") cells.push_back({m, s, true});
+      if (method_info(m).gated) cells.push_back({m, s, true});
       cells.push_back({m, s, false});
     }
   std::stable_sort(cells.begin(), cells.end(), [&](const EvalCell& a, const EvalCell& b) { return cost(a) > cost(b); });
@@ -768,7 +762,7 @@ EvalCell parse_eval_cell(const std::string& id, const std::vector<std::string>& 
   c.seed = std::stoi(seed);
   if (kind != "rq1" && kind != "rq2") throw Error(bad + "'" + kind + "' is not rq1 or rq2");
   c.rq1 = kind == "rq1";
-  if (c.rq1 && c.method == "bc") throw Error(bad + "BC has no RQ1 cell");
+  if (c.rq1 && !method_info(c.method).gated) throw Error(bad + method_info(c.method).title + " never asks: it has no RQ1 cell");
   return c;
 }
 
@@ -841,11 +835,11 @@ void run_eval(const ExperimentConfig& config, const EvalOptions& o) {
     auto m = make_method(name, c.policy, c.method, c.dagger.seed);
     const auto demos = collect_demos(c.task, c.expert, c.rq1_demos, c.dagger.seed);
     // The methods' RQ1 policies are one ensemble per seed, trained once (Diff-DAgger's is member 0).
-    m->adopt(rq1_policies(c, name == "diff" ? 1 : c.method.members, demos, o.out + "/rq1_policies/seed" + std::to_string(s),
+    m->adopt(rq1_policies(c, method_info(name).ensemble ? c.method.members : 1, demos, o.out + "/rq1_policies/seed" + std::to_string(s),
                           fmt::format("[seed {}] RQ1", s)),
              demos, {});
     double risk_data_s = 0;
-    if (name == "thrifty") {
+    if (method_info(name).learns_risk) {
       // The critic learns from robot rollouts too: roll out, then refit the critic alone (the
       // policies keep the budget every method gets). Those rollouts are Thrifty's extra cost.
       std::vector<RecordedEpisode> robot;
@@ -927,7 +921,7 @@ void run_eval(const ExperimentConfig& config, const EvalOptions& o) {
     }
     for (int s = 0; s < o.seeds; ++s)
       for (const std::string& name : o.methods) {
-        if (name == "bc") continue;
+        if (!method_info(name).gated) continue;
         const nlohmann::json j = nlohmann::json::parse(read_text(cell_file(name, s, true)));
         fmt::print("[seed {}] RQ1 {:8} TP {} FP {} TN {} FN {} (policy success {:.2f})\n", s, name, j.at("tp").get<int>(),
                    j.at("fp").get<int>(), j.at("tn").get<int>(), j.at("fn").get<int>(), j.at("success").get<double>());
@@ -956,7 +950,7 @@ void run_eval(const ExperimentConfig& config, const EvalOptions& o) {
   for (int s = 0; s < o.seeds; ++s) {
     for (const std::string& name : o.methods) {
       Row& row = rows[name];
-      if (name != "bc") {
+      if (method_info(name).gated) {
         const std::string file = cell_file(name, s, true);
         auto j = finished(file, ran_here);
         if (!j) {
@@ -971,7 +965,7 @@ void run_eval(const ExperimentConfig& config, const EvalOptions& o) {
         row.acc.push_back(rate("acc"));
         row.tp += (*j)["tp"].get<int>(), row.fp += (*j)["fp"].get<int>(), row.tn += (*j)["tn"].get<int>(), row.fn += (*j)["fn"].get<int>();
         row.rq1_success.push_back((*j)["success"].get<double>());
-        if (name == "thrifty") row.risk_data.push_back((*j)["risk_data_s"].get<double>());
+        if (method_info(name).learns_risk) row.risk_data.push_back((*j)["risk_data_s"].get<double>());
       }
       const std::string file = cell_file(name, s, false);
       auto j = finished(file, ran_here);
@@ -1024,7 +1018,7 @@ void run_eval(const ExperimentConfig& config, const EvalOptions& o) {
     p.y_label = label;
     p.width = 480;
     for (const std::string& name : o.methods) {
-      if (gated_only && name == "bc") continue;
+      if (gated_only && !method_info(name).gated) continue;
       const auto [m, sd] = value(rows[name]);
       p.categories.push_back(method_title(name));
       p.values.push_back(m);

@@ -141,7 +141,7 @@ struct EvalOptions {
   bool quick = false;
   int seeds = 1;
   int episodes = 100;   // rollouts per RQ1 / RQ2 measurement
-  std::vector<std::string> methods{"diff", "ensemble", "thrifty", "bc"};
+  std::vector<std::string> methods = method_names();
   int jobs = 1;         // cells run at a time, each in a process of its own with one thread (1: in this process)
   std::string cell;     // "METHOD:SEED:rq1|rq2": run only this cell (what --jobs gives each child process)
   bool only_rq1 = false;  // run only the RQ1 cells (with --jobs as well), print them, and write no report

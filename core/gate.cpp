@@ -48,7 +48,7 @@ QueryGate::QueryGate(float threshold, int patience) : threshold_(threshold), pat
   if (patience < 1) throw Error("gate: patience K must be >= 1, got " + std::to_string(patience));
 }
 
-GateDecision QueryGate::observe(float score) { return record(!std::isfinite(score) || score > threshold_); }
+GateDecision QueryGate::observe(float score) { return record(violates(score, threshold_)); }
 
 GateDecision QueryGate::record(bool violation) {
   GateDecision d;

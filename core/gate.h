@@ -5,9 +5,14 @@
 // a violation when it is above the threshold; the robot asks for help after K violations in a row.
 #pragma once
 
+#include <cmath>
 #include <vector>
 
 namespace dd {
+
+/// The query rule's verdict on one score: above its threshold, or not finite (the policy is lost).
+/// Every method judges its scores with it (and the gate counts its verdicts, QueryGate).
+inline bool violates(float score, float threshold) { return !std::isfinite(score) || score > threshold; }
 
 /// The alpha-quantile as sorted[floor(n * alpha)] (clamped to the last element).
 /// Throws Error on an empty set, alpha outside [0, 1], or a non-finite value.

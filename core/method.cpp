@@ -76,13 +76,14 @@ class DiffMethod : public Method {
     m.chunk = d.chunk;
     m.score = d.loss;
     m.threshold = threshold_;
-    m.violation = !std::isfinite(d.loss) || d.loss > threshold_;
+    m.violation = violates(d.loss, threshold_);
+    m.reason = m.violation ? QueryReason::kScore : QueryReason::kNone;
     // The compared rules score the same chunk, each in its own way, with noise of their own.
     for (size_t i = 0; i < compare_.size(); ++i) {
       use(compare_[i]);
       const float loss = policy_.expected_loss(obs, d.chunk, seed ^ (0x5C0E'0000'0000'0000ull + i), config_.loss_samples);
       m.compare_scores.push_back(loss);
-      m.compare_violations.push_back(!std::isfinite(loss) || loss > compare_thresholds_[i]);
+      m.compare_violations.push_back(violates(loss, compare_thresholds_[i]));
     }
     if (!compare_.empty()) use(main_rule_);
     return m;
@@ -176,7 +177,8 @@ class EnsembleMethod : public Method {
     m.chunk = d.chunk;
     m.score = d.variance;
     m.threshold = threshold_;
-    m.violation = !std::isfinite(d.variance) || d.variance > threshold_;
+    m.violation = violates(d.variance, threshold_);
+    m.reason = m.violation ? QueryReason::kScore : QueryReason::kNone;
     return m;
   }
   float threshold() const override { return threshold_; }
@@ -239,7 +241,11 @@ class ThriftyMethod : public EnsembleMethod {
   MethodDecision decide(const Vec& obs, uint64_t seed) override {
     MethodDecision m = EnsembleMethod::decide(obs, seed);
     m.risk_q = critic_.q(obs.transpose(), m.chunk.row(0)).front();
-    m.violation = m.violation || m.risk_q < gamma_;
+    // risk: the critic's success estimate below gamma (a lower bound: the rule on -Q and -gamma)
+    if (!m.violation && violates(-m.risk_q, -gamma_)) {
+      m.violation = true;
+      m.reason = QueryReason::kRisk;
+    }
     return m;
   }
 
@@ -432,14 +438,37 @@ ScoreRule ScoreRule::parse(const std::string& text) {
 
 std::string ScoreRule::name() const { return timesteps > 0 ? space + "@" + std::to_string(timesteps) : space; }
 
-std::vector<std::string> method_names() { return {"diff", "ensemble", "thrifty", "bc"}; }
+const std::vector<MethodInfo>& method_registry() {
+  static const std::vector<MethodInfo> rows = {
+      {"diff", "Diff-DAgger", {60, 110, 210}, "expected diffusion loss", "loss", true, false, false},
+      {"ensemble", "Ensemble-DAgger", {235, 120, 50}, "ensemble variance", "ensemble variance", true, true, false},
+      {"thrifty", "Thrifty-DAgger", {150, 90, 190}, "ensemble variance", "ensemble variance", true, true, true},
+      {"bc", "BC", {130, 130, 130}, "", "", false, false, false},
+  };
+  return rows;
+}
+
+const MethodInfo& method_info(const std::string& name) {
+  for (const MethodInfo& m : method_registry())
+    if (m.name == name) return m;
+  std::string known;
+  for (const MethodInfo& m : method_registry()) known += (known.empty() ? "" : ", ") + m.name;
+  throw Error("unknown method '" + name + "' (known: " + known + ")");
+}
+
+std::vector<std::string> method_names() {
+  std::vector<std::string> names;
+  for (const MethodInfo& m : method_registry()) names.push_back(m.name);
+  return names;
+}
 
 std::unique_ptr<Method> make_method(const std::string& name, const PolicyConfig& policy, const MethodConfig& config, uint64_t seed) {
   if (name == "diff") return std::make_unique<DiffMethod>(policy, config, seed);
   if (name == "ensemble") return std::make_unique<EnsembleMethod>(policy, config, seed);
   if (name == "thrifty") return std::make_unique<ThriftyMethod>(policy, config, seed);
   if (name == "bc") return std::make_unique<BcMethod>(policy, config, seed);
-  throw Error("unknown method '" + name + "' (known: diff, ensemble, thrifty, bc)");
+  method_info(name);  // throws, listing the known names
+  throw Error("method '" + name + "' has a registry row and no constructor in make_method");
 }
 
 }  // namespace dd

@@ -10,6 +10,8 @@
 // The patience K lives in the session's QueryGate, the same for every method.
 #pragma once
 
+#include <array>
+#include <cstdint>
 #include <memory>
 #include <string>
 #include <vector>
@@ -55,12 +57,20 @@ struct ScoreRule {
   std::string name() const;
 };
 
+/// Why a decision violates the query rule.
+enum class QueryReason : uint8_t {
+  kNone,   // it does not
+  kScore,  // the score (loss or variance) is above its threshold, or not finite
+  kRisk,   // thrifty: the critic's success estimate is below gamma
+};
+
 /// One decision of a method.
 struct MethodDecision {
   Mat chunk;                 // T_p x action_dim, raw units
   float score = 0;           // the quantity the threshold applies to (loss or variance)
   float threshold = 0;
-  bool violation = false;    // the query rule's verdict for this decision
+  bool violation = false;    // the query rule's verdict for this decision (core/gate.h, violates)
+  QueryReason reason = QueryReason::kNone;
   float risk_q = -1;         // thrifty: min Q(o, a); -1 when not computed
   std::vector<float> compare_scores;        // diff: the score of each MethodConfig::compare_scores rule
   std::vector<uint8_t> compare_violations;  // and its verdict
@@ -129,7 +139,21 @@ class Method {
 /// policy that is being trained or was loaded from a checkpoint.
 std::unique_ptr<Method> act_with(const DiffusionPolicy& policy);
 
-/// "diff", "ensemble", "thrifty", "bc".
+/// One row per method: what the command line, the console and the reports know about it.
+struct MethodInfo {
+  std::string name;               // "diff"
+  std::string title;              // "Diff-DAgger"
+  std::array<uint8_t, 3> color;   // in plots and reports (RGB)
+  std::string score;              // what its score is ("expected diffusion loss"); empty: it has none
+  std::string score_word;         // the same in a word or two, for one-line messages ("loss")
+  bool gated = true;              // asks for help (false: BC)
+  bool ensemble = false;          // trains MethodConfig::members policies
+  bool learns_risk = false;       // also asks when a critic predicts failure (Thrifty)
+};
+const std::vector<MethodInfo>& method_registry();
+/// The row of `name`; throws Error naming it and listing the known names.
+const MethodInfo& method_info(const std::string& name);
+/// The registry's names, in its order: "diff", "ensemble", "thrifty", "bc".
 std::vector<std::string> method_names();
 /// Builds a method by name; throws Error naming it when unknown.
 std::unique_ptr<Method> make_method(const std::string& name, const PolicyConfig& policy, const MethodConfig& config,

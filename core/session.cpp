@@ -103,6 +103,7 @@ bool DaggerSession::tick() {
       e.threshold = d.threshold;
       e.risk_q = d.risk_q;
       e.violation = g.violation;
+      e.reason = method_.gated() ? d.reason : QueryReason::kNone;
       e.run = g.run;
       e.inference_s = took;
       emit(e);

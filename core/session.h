@@ -75,6 +75,7 @@ struct SessionEvent {
   float threshold = 0;       // kDecision: the threshold it was compared with
   float risk_q = -1;         // kDecision (thrifty): min Q
   bool violation = false;    // kDecision
+  QueryReason reason = QueryReason::kNone;  // kDecision: why it violates (score or, thrifty, risk)
   int run = 0;               // kDecision: violations in a row
   double inference_s = 0;    // kDecision: time the decision took
   bool success = false;      // kEpisodeEnd

@@ -17,6 +17,7 @@
 #include "core/normalizer.h"
 #include "core/policy.h"
 #include "core/synthetic.h"
+#include "core/gate.h"
 #include "core/trainer.h"
 #include "tests/fakes.h"
 
@@ -324,6 +325,44 @@ TEST(Methods, DiffJudgesItsComparedRulesWithThresholdsOfTheirOwn) {
   // a rule drawing from more timesteps than the policy has is refused when the method is built
   mc.compare_scores = {"epsilon@999"};
   EXPECT_THROW(make_method("diff", fakes::tiny_policy(), mc, 1), Error);
+}
+
+}  // namespace dd
+
+namespace dd {
+
+TEST(Methods, TheRegistryDescribesEveryMethodItBuilds) {
+  for (const MethodInfo& info : method_registry()) {
+    auto m = make_method(info.name, fakes::tiny_policy(), small_method(), 1);
+    EXPECT_EQ(m->name(), info.name);
+    EXPECT_EQ(m->gated(), info.gated) << info.name;
+    EXPECT_EQ(info.score.empty(), !info.gated) << info.name << ": a method that asks says what its score is";
+    EXPECT_FALSE(info.title.empty());
+  }
+  try {
+    make_method("dagger", fakes::tiny_policy(), small_method(), 1);
+    ADD_FAILURE() << "an unknown method was built";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("'dagger' (known: diff, ensemble, thrifty, bc)"), std::string::npos) << e.what();
+  }
+}
+
+TEST(Methods, ADecisionSaysWhyItViolates) {
+  const auto episodes = bimodal_episodes(12, 10, 2, 2, /*seed=*/5);
+  MethodConfig mc = small_method();
+  mc.alpha = 0.3;  // a low threshold: some decisions along the data violate it, some do not
+  auto m = make_method("diff", fakes::tiny_policy(), mc, 1);
+  m->update(episodes, {}, short_training());
+  int violations = 0;
+  for (uint64_t i = 0; i < 24; ++i) {
+    const Vec obs = episodes[i % episodes.size()].obs.row(static_cast<Eigen::Index>(i % 10)).transpose();
+    const MethodDecision d = m->decide(obs, i);
+    EXPECT_EQ(d.violation, violates(d.score, d.threshold));
+    EXPECT_EQ(d.reason, d.violation ? QueryReason::kScore : QueryReason::kNone);
+    violations += d.violation;
+  }
+  EXPECT_GT(violations, 0);
+  EXPECT_LT(violations, 24);
 }
 
 }  // namespace dd

@@ -25,7 +25,7 @@ void handle_event(Console::State& s, const SessionEvent& e) {
       s.dragging = false;
       break;
     case EventKind::kDecision:
-      s.decisions.push_back({s.decision_count++, e.episode, e.score, e.threshold, e.violation, e.run, e.risk_q});
+      s.decisions.push_back({s.decision_count++, e.episode, e.score, e.threshold, e.violation, e.run, e.risk_q, e.reason});
       while (s.decisions.size() > 400) s.decisions.pop_front();
       s.last_decision_ms = e.inference_s * 1e3;
       break;

@@ -1,6 +1,7 @@
 // The panels: the loss plot, the control timeline, the session's numbers, the top bar, the key list
 // and the quit dialog. They read the state and draw.
 #include <algorithm>
+#include <cctype>
 #include <cmath>
 #include <filesystem>
 
@@ -11,7 +12,10 @@ namespace fs = std::filesystem;
 
 // Expected loss (or the method's score) per decision on a log axis, with the threshold and violations.
 void loss_plot(Console::State& s, ImVec2 pos, ImVec2 size) {
-  begin_panel(s.o.method == "diff" ? "Expected diffusion loss per decision###plot" : "Query score per decision###plot", pos, size);
+  const MethodInfo& m = method_info(s.o.method);
+  std::string title = m.score.empty() ? "Query score" : m.score;
+  title[0] = static_cast<char>(std::toupper(static_cast<unsigned char>(title[0])));
+  begin_panel((title + " per decision###plot").c_str(), pos, size);
   const Decision* last = s.decisions.empty() ? nullptr : &s.decisions.back();
   if (last) {
     ImGui::TextColored(ImVec4(0.55f, 0.75f, 1.f, 1.f), "score %.4g", last->score);

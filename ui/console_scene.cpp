@@ -198,12 +198,12 @@ void scene_view(Console::State& s, ImVec2 pos, ImVec2 size) {
     const Decision* d = s.decisions.empty() ? nullptr : &s.decisions.back();
     const float score = d ? d->score : 0.f, threshold = d ? d->threshold : 0.f;
     const int K = s.o.config.dagger.patience;
-    if (s.o.method == "diff")
-      std::snprintf(line, sizeof line, "loss %.3g above the threshold %.3g for %d decisions in a row", score, threshold, K);
-    else if (score > threshold)
-      std::snprintf(line, sizeof line, "novelty: ensemble variance %.3g above %.3g for %d decisions in a row", score, threshold, K);
+    const MethodInfo& m = method_info(s.o.method);
+    if (d && d->reason == QueryReason::kRisk)
+      std::snprintf(line, sizeof line, "risk: the critic's success estimate %.2f is below its bound", d->risk_q);
     else
-      std::snprintf(line, sizeof line, "risk: the critic's success estimate %.2f is below its bound", d ? d->risk_q : 0.f);
+      std::snprintf(line, sizeof line, "%s%s %.3g above the threshold %.3g for %d decisions in a row", m.learns_risk ? "novelty: " : "",
+                    m.score_word.c_str(), score, threshold, K);
     ImVec2 ls = ImGui::CalcTextSize(line);
     dl->AddText(ImVec2(a.x + (w - ls.x) * 0.5f, a.y + 44), IM_COL32(255, 235, 220, 255), line);
     const char* keys = s.o.scripted_operator ? "the scripted operator takes over shortly"

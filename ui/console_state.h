@@ -89,6 +89,7 @@ struct Decision {
   bool violation;
   int run;
   float risk_q;  // thrifty: the critic's min Q (-1: not computed)
+  QueryReason reason;
 };
 
 struct Timeline {
