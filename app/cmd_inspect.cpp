@@ -6,6 +6,7 @@
 #include <nlohmann/json.hpp>
 
 #include "app/commands.h"
+#include "envs/registry.h"
 #include "core/interop.h"
 #include "core/policy.h"
 #include "core/task_config.h"
@@ -47,7 +48,7 @@ Command add_import_policy(CLI::App& app) {
   cmd->add_option("--out", o->out, "checkpoint to write (.pt)")->required();
   return [o] {
     spdlog::set_level(spdlog::level::warn);
-    const ExperimentConfig c = preset(o->task == "push" ? "push_2experts" : o->task);
+    const ExperimentConfig c = preset(task_info(o->task).preset);
     const auto policy = import_diffusion_policy(o->state_dict, o->json, c.policy);
     policy->save(o->out);
     const PolicyConfig& p = policy->config();

@@ -3,6 +3,7 @@
 #include <fmt/format.h>
 
 #include "app/commands.h"
+#include "envs/registry.h"
 #include "app/experiments.h"
 #include "core/task_config.h"
 
@@ -39,7 +40,7 @@ Command add_train(CLI::App& app) {
       ->check(CLI::NonNegativeNumber);
   cmd->add_option("--seed", o->seed, "seed of the network, the minibatches and the collected demonstrations")->capture_default_str();
   return [o] {
-    ExperimentConfig c = o->config.empty() ? preset(o->task == "push" ? "push_2experts" : o->task) : resolve_config("", o->config);
+    ExperimentConfig c = o->config.empty() ? preset(task_info(o->task).preset) : resolve_config("", o->config);
     if (!o->expert.empty()) c.expert = o->expert;
     // By default the budget BC gets in `eval`: the preset's per-update steps times the number of
     // updates a DAgger run makes (or, with from-scratch updates, the epoch rule).

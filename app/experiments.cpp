@@ -128,7 +128,7 @@ ExperimentConfig resolve_config(const std::string& task, const std::string& conf
       throw Error(config_file + ": preset '" + c.preset + "' is for task '" + c.task + "', not '" + task + "'");
     return c;
   }
-  return preset(task == "push" ? "push_2experts" : task);
+  return preset(task_info(task).preset);
 }
 
 int bc_budget_factor(const DaggerConfig& d) {

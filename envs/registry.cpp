@@ -1,5 +1,7 @@
 #include "envs/registry.h"
 
+#include <algorithm>
+
 #include "core/config.h"
 #include "envs/nav2d.h"
 #include "envs/nav2d_expert.h"
@@ -26,73 +28,93 @@ constexpr float kPushExpertNoise = 0.01f;
 constexpr float kPlugExpertNoise = 0.002f;
 }  // namespace
 
-std::vector<std::string> task_names() { return {"nav2d", "nav2d_random", "stack", "push", "plug"}; }
+namespace {
 
-std::unique_ptr<Env> make_env(const std::string& task) {
-  if (task == "nav2d") return std::make_unique<Nav2dEnv>();
-  if (task == "nav2d_random") return std::make_unique<Nav2dEnv>(nav2d_random_config());
-  if (task == "stack") return std::make_unique<mj::StackEnv>();
-  if (task == "plug") return std::make_unique<mj::PlugEnv>();
-  if (task == "push") return std::make_unique<mj::PushEnv>();
-  throw Error("unknown task '" + task + "' (known: nav2d, nav2d_random, stack, push, plug)");
+std::string nav2d_env_args(const std::string& task, const Nav2dConfig& c) {
+  const std::string obs = c.observe_obstacle ? R"(["x", "y", "vx", "vy", "obstacle_x", "obstacle_y"])" : R"(["x", "y", "vx", "vy"])";
+  return R"({"env_name": ")" + task + R"(", "type": "diffdagger", "env_kwargs": {"hz": )" + std::to_string(c.hz) +
+         R"(, "time_limit": )" + std::to_string(c.time_limit) + R"(, "obstacle_jitter": )" + std::to_string(c.obstacle_jitter) +
+         R"(, "obs": )" + obs + R"(, "action": ["target_x", "target_y"]}})";
 }
+
+std::unique_ptr<Expert> nav2d_expert(const std::string& mode) {
+  if (mode == "cw") return std::make_unique<Nav2dExpert>(Nav2dExpert::Mode::kClockwise);
+  if (mode == "ccw") return std::make_unique<Nav2dExpert>(Nav2dExpert::Mode::kCounterClockwise);
+  return std::make_unique<Nav2dExpert>(Nav2dExpert::Mode::kMixed);
+}
+
+template <typename PlannerExpert>
+std::unique_ptr<Expert> planner_expert(const std::string& mode) {
+  auto expert = std::make_unique<PlannerExpert>();
+  if (mode == "detour") expert->detour = kExpertDetour;
+  return expert;
+}
+
+// the TCP position only: a tilted tool or a twitching gripper would drop the charger
+Vec plug_noise() {
+  Vec n = Vec::Zero(10);
+  n.head(3).setConstant(kPlugExpertNoise);
+  return n;
+}
+
+std::unique_ptr<Expert> push_expert(const std::string& mode) {
+  if (mode == "cw") return std::make_unique<mj::PushExpert>(mj::PushExpert::Mode::kClockwise);
+  if (mode == "ccw") return std::make_unique<mj::PushExpert>(mj::PushExpert::Mode::kCounterClockwise);
+  if (mode == "alternate") return std::make_unique<mj::PushExpert>(mj::PushExpert::Mode::kAlternate);
+  return std::make_unique<mj::PushExpert>(mj::PushExpert::Mode::kMixed);
+}
+
+}  // namespace
+
+const std::vector<TaskInfo>& task_registry() {
+  static const std::vector<TaskInfo> rows = {
+      {"nav2d", "2-D navigation around an obstacle", "nav2d", {"mixed", "cw", "ccw"}, Vec(),
+       [] { return std::make_unique<Nav2dEnv>(); }, nav2d_expert, nav2d_env_args("nav2d", Nav2dConfig{})},
+      {"nav2d_random", "2-D navigation, the obstacle moved each episode", "nav2d_random", {"mixed", "cw", "ccw"}, Vec(),
+       [] { return std::make_unique<Nav2dEnv>(nav2d_random_config()); }, nav2d_expert, nav2d_env_args("nav2d_random", nav2d_random_config())},
+      {"stack", "stacking a cube on another", "stack", {"mixed", "planner", "detour"}, Vec(),
+       [] { return std::make_unique<mj::StackEnv>(); }, planner_expert<mj::StackExpert>,
+       R"({"env_name": "stack", "type": "diffdagger", "env_kwargs": {"hz": 20, "time_limit": 250, "obs": ["q7", "tcp_pos3", "tcp_rot6d", "opening", "red_pos3", "red_quat4", "green_pos3", "green_quat4", "red_minus_tcp3", "green_minus_red3"], "action": ["tcp_pos3", "tcp_rot6d", "grip"]}})"},
+      {"push", "pushing a T", "push_2experts", {"mixed", "cw", "ccw", "alternate"}, Vec::Constant(7, kPushExpertNoise),
+       [] { return std::make_unique<mj::PushEnv>(); }, push_expert,
+       R"({"env_name": "push", "type": "diffdagger", "env_kwargs": {"hz": 20, "time_limit": 650, "goal": [0.52, 0.0, 0.0], "obs": ["q7", "tip_pos3", "tip_rot6d", "block_x", "block_y", "block_cos", "block_sin", "tip_in_block2", "goal_in_block2"], "action": ["dq7"]}})"},
+      {"plug", "plugging a charger into a socket", "plug", {"mixed", "planner", "detour"}, plug_noise(),
+       [] { return std::make_unique<mj::PlugEnv>(); }, planner_expert<mj::PlugExpert>,
+       R"({"env_name": "plug", "type": "diffdagger", "env_kwargs": {"hz": 20, "time_limit": 500, "clearance_mm": 1, "obs": ["q7", "tcp_pos3", "tcp_rot6d", "opening", "charger_pos3", "charger_quat4", "socket_pos3", "socket_quat4", "charger_minus_tcp3", "socket_minus_charger3"], "action": ["tcp_pos3", "tcp_rot6d", "grip"]}})"},
+  };
+  return rows;
+}
+
+const TaskInfo& task_info(const std::string& task) {
+  for (const TaskInfo& t : task_registry())
+    if (t.name == task) return t;
+  std::string known;
+  for (const TaskInfo& t : task_registry()) known += (known.empty() ? "" : ", ") + t.name;
+  throw Error("unknown task '" + task + "' (known: " + known + ")");
+}
+
+std::vector<std::string> task_names() {
+  std::vector<std::string> names;
+  for (const TaskInfo& t : task_registry()) names.push_back(t.name);
+  return names;
+}
+
+std::unique_ptr<Env> make_env(const std::string& task) { return task_info(task).make_env(); }
 
 std::unique_ptr<Expert> make_expert(const std::string& task, const std::string& mode) {
-  if (mode.size() > 6 && mode.compare(mode.size() - 6, 6, "+noise") == 0 && (task == "push" || task == "plug")) {
-    auto expert = make_expert(task, mode.substr(0, mode.size() - 6));
-    if (task == "push") {
-      expert->execution_noise = Vec::Constant(7, kPushExpertNoise);
-    } else {  // the TCP position only: a tilted tool or a twitching gripper would drop the charger
-      expert->execution_noise = Vec::Zero(10);
-      expert->execution_noise.head(3).setConstant(kPlugExpertNoise);
-    }
-    return expert;
-  }
-  if (task == "nav2d" || task == "nav2d_random") {
-    if (mode == "cw") return std::make_unique<Nav2dExpert>(Nav2dExpert::Mode::kClockwise);
-    if (mode == "ccw") return std::make_unique<Nav2dExpert>(Nav2dExpert::Mode::kCounterClockwise);
-    if (mode == "mixed") return std::make_unique<Nav2dExpert>(Nav2dExpert::Mode::kMixed);
-    throw Error("nav2d expert: unknown mode '" + mode + "' (known: cw, ccw, mixed)");
-  }
-  if (task == "stack") {
-    if (mode != "mixed" && mode != "planner" && mode != "detour")
-      throw Error("stack expert: unknown mode '" + mode + "' (known: planner, detour)");
-    auto expert = std::make_unique<mj::StackExpert>();
-    if (mode == "detour") expert->detour = kExpertDetour;
-    return expert;
-  }
-  if (task == "push") {
-    if (mode == "cw") return std::make_unique<mj::PushExpert>(mj::PushExpert::Mode::kClockwise);
-    if (mode == "ccw") return std::make_unique<mj::PushExpert>(mj::PushExpert::Mode::kCounterClockwise);
-    if (mode == "mixed") return std::make_unique<mj::PushExpert>(mj::PushExpert::Mode::kMixed);
-    if (mode == "alternate") return std::make_unique<mj::PushExpert>(mj::PushExpert::Mode::kAlternate);
-    throw Error("push expert: unknown mode '" + mode + "' (known: cw, ccw, mixed, alternate; each with +noise)");
-  }
-  if (task == "plug") {
-    if (mode != "mixed" && mode != "planner" && mode != "detour")
-      throw Error("plug expert: unknown mode '" + mode + "' (known: planner, detour; each with +noise)");
-    auto expert = std::make_unique<mj::PlugExpert>();
-    if (mode == "detour") expert->detour = kExpertDetour;
-    return expert;
-  }
-  throw Error("unknown task '" + task + "' for an expert");
+  const TaskInfo& t = task_info(task);
+  const bool noisy = mode.size() > 6 && mode.compare(mode.size() - 6, 6, "+noise") == 0;
+  const std::string base = noisy ? mode.substr(0, mode.size() - 6) : mode;
+  std::string known;
+  for (const std::string& m : t.expert_modes) known += (known.empty() ? "" : ", ") + m;
+  const bool has_noise = t.expert_noise.size() > 0;
+  if ((noisy && !has_noise) || std::find(t.expert_modes.begin(), t.expert_modes.end(), base) == t.expert_modes.end())
+    throw Error(task + " expert: unknown mode '" + mode + "' (known: " + known + (has_noise ? "; each with +noise)" : ")"));
+  auto expert = t.make_expert(base);
+  if (noisy) expert->execution_noise = t.expert_noise;
+  return expert;
 }
 
-std::string env_args(const std::string& task) {
-  if (task == "nav2d" || task == "nav2d_random") {
-    const Nav2dConfig c = task == "nav2d" ? Nav2dConfig{} : nav2d_random_config();
-    const std::string obs = c.observe_obstacle ? R"(["x", "y", "vx", "vy", "obstacle_x", "obstacle_y"])" : R"(["x", "y", "vx", "vy"])";
-    return R"({"env_name": ")" + task + R"(", "type": "diffdagger", "env_kwargs": {"hz": )" + std::to_string(c.hz) +
-           R"(, "time_limit": )" + std::to_string(c.time_limit) + R"(, "obstacle_jitter": )" + std::to_string(c.obstacle_jitter) +
-           R"(, "obs": )" + obs + R"(, "action": ["target_x", "target_y"]}})";
-  }
-  if (task == "stack")
-    return R"({"env_name": "stack", "type": "diffdagger", "env_kwargs": {"hz": 20, "time_limit": 250, "obs": ["q7", "tcp_pos3", "tcp_rot6d", "opening", "red_pos3", "red_quat4", "green_pos3", "green_quat4", "red_minus_tcp3", "green_minus_red3"], "action": ["tcp_pos3", "tcp_rot6d", "grip"]}})";
-  if (task == "push")
-    return R"({"env_name": "push", "type": "diffdagger", "env_kwargs": {"hz": 20, "time_limit": 650, "goal": [0.52, 0.0, 0.0], "obs": ["q7", "tip_pos3", "tip_rot6d", "block_x", "block_y", "block_cos", "block_sin", "tip_in_block2", "goal_in_block2"], "action": ["dq7"]}})";
-  if (task == "plug")
-    return R"({"env_name": "plug", "type": "diffdagger", "env_kwargs": {"hz": 20, "time_limit": 500, "clearance_mm": 1, "obs": ["q7", "tcp_pos3", "tcp_rot6d", "opening", "charger_pos3", "charger_quat4", "socket_pos3", "socket_quat4", "charger_minus_tcp3", "socket_minus_charger3"], "action": ["tcp_pos3", "tcp_rot6d", "grip"]}})";
-  throw Error("unknown task '" + task + "'");
-}
+std::string env_args(const std::string& task) { return task_info(task).env_args; }
 
 }  // namespace dd

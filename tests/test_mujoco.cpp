@@ -19,7 +19,10 @@
 #include "envs/mujoco/plug_expert.h"
 #include "envs/mujoco/push.h"
 #include "envs/mujoco/push_expert.h"
+#include "core/task_config.h"
 #include "envs/registry.h"
+
+#include <nlohmann/json.hpp>
 
 namespace dd::mj {
 namespace {
@@ -468,3 +471,39 @@ TEST(ArmTeleoperation, TheTargetStartsAtTheToolMovesWithTheViewAndTheGripperTogg
 }
 
 }  // namespace dd::mj
+
+namespace dd {
+
+TEST(TaskRegistry, EveryRowBuildsItsEnvExpertsAndTeleoperationToMatchItsPreset) {
+  for (const TaskInfo& t : task_registry()) {
+    SCOPED_TRACE(t.name);
+    auto env = make_env(t.name);
+    EXPECT_EQ(env->name(), t.name);
+    EXPECT_TRUE(env->teleoperation()) << "every task can be driven by an operator";
+    const ExperimentConfig c = preset(t.preset);
+    EXPECT_EQ(c.task, t.name);
+    EXPECT_EQ(c.policy.obs_dim, env->obs_dim());
+    EXPECT_EQ(c.policy.action_dim, env->action_dim());
+    for (const std::string& mode : t.expert_modes) EXPECT_TRUE(make_expert(t.name, mode)) << mode;
+    if (t.expert_noise.size() > 0) {
+      EXPECT_EQ(t.expert_noise.size(), env->action_dim());
+      EXPECT_EQ(make_expert(t.name, t.expert_modes.back() + "+noise")->execution_noise, t.expert_noise);
+    } else {
+      EXPECT_THROW(make_expert(t.name, "mixed+noise"), Error);
+    }
+    const nlohmann::json args = nlohmann::json::parse(env_args(t.name));
+    EXPECT_EQ(args.at("env_name").get<std::string>(), t.name);
+  }
+  auto message = [](const std::function<void()>& f) {
+    try {
+      f();
+    } catch (const Error& e) {
+      return std::string(e.what());
+    }
+    return std::string();
+  };
+  EXPECT_EQ(message([] { make_env("fold"); }), "unknown task 'fold' (known: nav2d, nav2d_random, stack, push, plug)");
+  EXPECT_EQ(message([] { make_expert("push", "zigzag"); }), "push expert: unknown mode 'zigzag' (known: mixed, cw, ccw, alternate; each with +noise)");
+}
+
+}  // namespace dd
