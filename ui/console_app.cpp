@@ -50,78 +50,122 @@ void render_imgui(int width, int height) {
   ImGui_ImplOpenGL3_RenderDrawData(ImGui::GetDrawData());
 }
 
-}  // namespace
+// What drives the console: where frames are drawn and input comes from. One loop (run_console)
+// serves both the window and the headless runner.
+class Platform {
+ public:
+  virtual ~Platform() = default;
+  /// After the console exists (it loads the fonts before a backend builds its atlas): the ImGui
+  /// platform backend, if any.
+  virtual void start() {}
+  /// This frame's input.
+  virtual FrameInput input(const Console& console) = 0;
+  /// Before ImGui's NewFrame: make the context current, feed the platform backend.
+  virtual void new_frame() = 0;
+  /// The framebuffer's size in pixels.
+  virtual std::pair<int, int> size() const = 0;
+  /// After the frame is rendered and its screenshots written: present it; true to stop.
+  virtual bool present(const Console& console, const std::set<std::string>& written) = 0;
+  /// The exit code, once the loop has stopped.
+  virtual int exit_code(const std::set<std::string>& written) const { (void)written; return 0; }
+  /// Before the ImGui context goes: the platform backend's shutdown.
+  virtual void stop() {}
+};
 
-int run_headless(ConsoleOptions options, const ConsoleRunOptions& run) {
-  std::vector<ScriptEvent> script;
-  if (!run.script.empty()) script = load_script(run.script);
-  options.fixed_step = true;
-  options.scripted_operator = run.script.empty();
-  if (!run.screenshots.empty()) fs::create_directories(run.screenshots);
-
-  std::string error;
-  auto gl = HeadlessGL::create(run.width, run.height, &error);
-  if (!gl) throw Error(error);
+int run_console(const ConsoleOptions& options, const ConsoleRunOptions& run, Platform& platform) {
   IMGUI_CHECKVERSION();
   ImGui::CreateContext();
-  ImGuiIO& io = ImGui::GetIO();
-  io.IniFilename = nullptr;
-  io.DisplaySize = ImVec2(static_cast<float>(run.width), static_cast<float>(run.height));
+  ImGui::GetIO().IniFilename = nullptr;
+  if (!run.screenshots.empty()) fs::create_directories(run.screenshots);
   int code = 0;
   {
-    Console console(options);  // loads the fonts before the backend builds its atlas
+    Console console(options);
+    platform.start();
     ImGui_ImplOpenGL3_Init("#version 130");
-    const double dt = 1.0 / 20;
-    const int max_frames = run.max_frames > 0 ? run.max_frames : 20000;
     std::set<std::string> written;
-    const std::set<std::string> wanted = {"query", "takeover", "update"};
-    int frame = 0;
-    while (frame < max_frames) {
-      FrameInput in;
-      in.dt = dt;
-      for (ScriptEvent& e : script) {
-        if (e.start < 0) {
-          const bool fired = (e.on == "query" && console.queries() > 0) || (e.on == "update" && console.updates() > 0) ||
-                             (e.on == "takeover" && console.operator_takeovers() > 0) || (e.on == "episode" && console.episode() > 1);
-          if (fired) e.start = frame + e.after;
-        }
-        if (e.start < 0 || frame < e.start) continue;
-        if (e.command && frame == e.start) in.commands.push_back(*e.command);
-        if (!e.hold.isZero() && frame < e.start + e.frames) in.jog += e.hold;
-      }
-      io.DeltaTime = static_cast<float>(dt);
-      io.MousePos = ImVec2(-FLT_MAX, -FLT_MAX);
-      gl->make_current();  // (MuJoCo's renderer binds framebuffers of its own)
+    while (!console.quit()) {
+      const FrameInput in = platform.input(console);
+      platform.new_frame();
       ImGui_ImplOpenGL3_NewFrame();
       ImGui::NewFrame();
       console.frame(in);
-      render_imgui(run.width, run.height);
-      save_shots(console, run.screenshots, run.width, run.height, &written);
-      if (console.quit()) break;
-      if (!run.screenshots.empty() && std::includes(written.begin(), written.end(), wanted.begin(), wanted.end())) break;
-      // while the worker trains, frames wait for it instead of counting down the budget
-      if (console.busy()) {
-        std::this_thread::sleep_for(std::chrono::milliseconds(20));
-        continue;
-      }
-      ++frame;
+      const auto [w, h] = platform.size();
+      render_imgui(w, h);
+      save_shots(console, run.screenshots, w, h, &written);
+      if (platform.present(console, written)) break;
     }
-    if (frame >= max_frames && !run.screenshots.empty()) spdlog::warn("headless console: stopped after {} frames", max_frames);
-    for (const std::string& w : wanted)
-      if (!run.screenshots.empty() && !written.count(w)) {
-        spdlog::error("headless console: no {}.png (the event did not happen within {} frames)", w, frame);
-        code = 3;
-      }
+    code = platform.exit_code(written);
     console.shutdown();
     ImGui_ImplOpenGL3_Shutdown();
+    platform.stop();
   }
   ImGui::DestroyContext();
   return code;
 }
 
-// ---- the window ----
+// EGL with no display, a fixed time step, input from a script (or none: the scripted expert plays
+// the operator); stops when the three named screenshots are written, or after max_frames.
+class HeadlessPlatform : public Platform {
+ public:
+  HeadlessPlatform(const ConsoleRunOptions& run, std::vector<ScriptEvent> script)
+      : run_(run), script_(std::move(script)), max_frames_(run.max_frames > 0 ? run.max_frames : 20000) {
+    std::string error;
+    gl_ = HeadlessGL::create(run.width, run.height, &error);
+    if (!gl_) throw Error(error);
+  }
+  FrameInput input(const Console& console) override {
+    FrameInput in;
+    in.dt = kDt;
+    for (ScriptEvent& e : script_) {
+      if (e.start < 0) {
+        const bool fired = (e.on == "query" && console.queries() > 0) || (e.on == "update" && console.updates() > 0) ||
+                           (e.on == "takeover" && console.operator_takeovers() > 0) || (e.on == "episode" && console.episode() > 1);
+        if (fired) e.start = frame_ + e.after;
+      }
+      if (e.start < 0 || frame_ < e.start) continue;
+      if (e.command && frame_ == e.start) in.commands.push_back(*e.command);
+      if (!e.hold.isZero() && frame_ < e.start + e.frames) in.jog += e.hold;
+    }
+    return in;
+  }
+  void new_frame() override {
+    ImGuiIO& io = ImGui::GetIO();
+    io.DisplaySize = ImVec2(static_cast<float>(run_.width), static_cast<float>(run_.height));
+    io.DeltaTime = static_cast<float>(kDt);
+    io.MousePos = ImVec2(-FLT_MAX, -FLT_MAX);
+    gl_->make_current();  // (MuJoCo's renderer binds framebuffers of its own)
+  }
+  std::pair<int, int> size() const override { return {run_.width, run_.height}; }
+  bool present(const Console& console, const std::set<std::string>& written) override {
+    if (!run_.screenshots.empty() && std::includes(written.begin(), written.end(), kWanted.begin(), kWanted.end())) return true;
+    // while the worker trains, frames wait for it instead of counting down the budget
+    if (console.busy()) {
+      std::this_thread::sleep_for(std::chrono::milliseconds(20));
+      return false;
+    }
+    return ++frame_ >= max_frames_;
+  }
+  int exit_code(const std::set<std::string>& written) const override {
+    if (run_.screenshots.empty()) return 0;
+    if (frame_ >= max_frames_) spdlog::warn("headless console: stopped after {} frames", max_frames_);
+    int code = 0;
+    for (const std::string& w : kWanted)
+      if (!written.count(w)) {
+        spdlog::error("headless console: no {}.png (the event did not happen within {} frames)", w, frame_);
+        code = 3;
+      }
+    return code;
+  }
 
-namespace {
+ private:
+  static constexpr double kDt = 1.0 / 20;
+  inline static const std::set<std::string> kWanted = {"query", "takeover", "update"};
+  const ConsoleRunOptions& run_;
+  std::vector<ScriptEvent> script_;
+  std::unique_ptr<HeadlessGL> gl_;
+  int frame_ = 0;
+  const int max_frames_;
+};
 
 std::vector<Command>* g_commands = nullptr;
 
@@ -133,77 +177,90 @@ void key_callback(GLFWwindow*, int key, int, int action, int) {
 
 void glfw_error(int code, const char* what) { spdlog::error("GLFW error {}: {}", code, what); }
 
+// A GLFW window: keys through the binding table, arrow keys and PageUp/PageDown held, a gamepad.
+class WindowPlatform : public Platform {
+ public:
+  WindowPlatform(const ConsoleRunOptions& run, const std::string& title) {
+    glfwSetErrorCallback(glfw_error);
+    if (!glfwInit()) throw Error("gui: GLFW could not start (no display? use --headless)");
+    window_ = glfwCreateWindow(run.width, run.height, title.c_str(), nullptr, nullptr);
+    if (!window_) {
+      glfwTerminate();
+      throw Error("gui: could not open a window with an OpenGL context");
+    }
+    glfwMakeContextCurrent(window_);
+    glfwSwapInterval(1);
+    g_commands = &commands_;
+    glfwSetKeyCallback(window_, key_callback);  // installed first, so ImGui's backend chains to it
+  }
+  ~WindowPlatform() override {
+    g_commands = nullptr;
+    glfwDestroyWindow(window_);
+    glfwTerminate();
+  }
+  void start() override {
+    ImGui_ImplGlfw_InitForOpenGL(window_, true);
+    spdlog::info("console window open; F1 lists the keys");
+    last_ = std::chrono::steady_clock::now();
+  }
+  FrameInput input(const Console&) override {
+    glfwPollEvents();
+    FrameInput in;
+    const auto now = std::chrono::steady_clock::now();
+    in.dt = std::chrono::duration<double>(now - last_).count();
+    last_ = now;
+    in.commands.swap(commands_);
+    auto down = [&](int key) { return glfwGetKey(window_, key) == GLFW_PRESS ? 1 : 0; };
+    in.jog = Eigen::Vector2d(down(GLFW_KEY_RIGHT) - down(GLFW_KEY_LEFT), down(GLFW_KEY_UP) - down(GLFW_KEY_DOWN));
+    in.lift = down(GLFW_KEY_PAGE_UP) - down(GLFW_KEY_PAGE_DOWN);
+    GLFWgamepadstate pad;
+    if (glfwJoystickIsGamepad(GLFW_JOYSTICK_1) && glfwGetGamepadState(GLFW_JOYSTICK_1, &pad)) {
+      const float x = pad.axes[GLFW_GAMEPAD_AXIS_LEFT_X], y = -pad.axes[GLFW_GAMEPAD_AXIS_LEFT_Y];
+      if (std::abs(x) > 0.15f || std::abs(y) > 0.15f) in.jog = Eigen::Vector2d(x, y);
+      for (auto [button, command] : gamepad_bindings()) {
+        if (pad.buttons[button] && !previous_buttons_[button]) in.commands.push_back(command);
+        previous_buttons_[button] = pad.buttons[button];
+      }
+    }
+    if (glfwWindowShouldClose(window_)) {
+      in.close_requested = true;
+      glfwSetWindowShouldClose(window_, GLFW_FALSE);  // the console decides (it may ask first)
+    }
+    return in;
+  }
+  void new_frame() override { ImGui_ImplGlfw_NewFrame(); }
+  std::pair<int, int> size() const override {
+    int w = 0, h = 0;
+    glfwGetFramebufferSize(window_, &w, &h);
+    return {w, h};
+  }
+  bool present(const Console&, const std::set<std::string>&) override {
+    glfwSwapBuffers(window_);
+    return false;
+  }
+  void stop() override { ImGui_ImplGlfw_Shutdown(); }
+
+ private:
+  GLFWwindow* window_ = nullptr;
+  std::vector<Command> commands_;
+  std::chrono::steady_clock::time_point last_;
+  unsigned char previous_buttons_[GLFW_GAMEPAD_BUTTON_LAST + 1] = {};
+};
+
 }  // namespace
 
-int run_window(ConsoleOptions options, const ConsoleRunOptions& run) {
-  glfwSetErrorCallback(glfw_error);
-  if (!glfwInit()) throw Error("gui: GLFW could not start (no display? use --headless)");
-  GLFWwindow* window =
-      glfwCreateWindow(run.width, run.height, ("diffdagger: " + options.config.task + ", " + options.method).c_str(), nullptr, nullptr);
-  if (!window) {
-    glfwTerminate();
-    throw Error("gui: could not open a window with an OpenGL context");
-  }
-  glfwMakeContextCurrent(window);
-  glfwSwapInterval(1);
-  std::vector<Command> commands;
-  g_commands = &commands;
-  glfwSetKeyCallback(window, key_callback);  // installed first, so ImGui's backend chains to it
+int run_headless(ConsoleOptions options, const ConsoleRunOptions& run) {
+  std::vector<ScriptEvent> script;
+  if (!run.script.empty()) script = load_script(run.script);
+  options.fixed_step = true;
+  options.scripted_operator = run.script.empty();
+  HeadlessPlatform platform(run, std::move(script));
+  return run_console(options, run, platform);
+}
 
-  IMGUI_CHECKVERSION();
-  ImGui::CreateContext();
-  ImGui::GetIO().IniFilename = nullptr;
-  if (!run.screenshots.empty()) fs::create_directories(run.screenshots);
-  int code = 0;
-  {
-    Console console(options);
-    ImGui_ImplGlfw_InitForOpenGL(window, true);
-    ImGui_ImplOpenGL3_Init("#version 130");
-    spdlog::info("console window open; F1 lists the keys");
-    auto last = std::chrono::steady_clock::now();
-    unsigned char previous_buttons[GLFW_GAMEPAD_BUTTON_LAST + 1] = {};
-    while (!console.quit()) {
-      glfwPollEvents();
-      FrameInput in;
-      const auto now = std::chrono::steady_clock::now();
-      in.dt = std::chrono::duration<double>(now - last).count();
-      last = now;
-      in.commands.swap(commands);
-      auto down = [&](int key) { return glfwGetKey(window, key) == GLFW_PRESS ? 1 : 0; };
-      in.jog = Eigen::Vector2d(down(GLFW_KEY_RIGHT) - down(GLFW_KEY_LEFT), down(GLFW_KEY_UP) - down(GLFW_KEY_DOWN));
-      in.lift = down(GLFW_KEY_PAGE_UP) - down(GLFW_KEY_PAGE_DOWN);
-      GLFWgamepadstate pad;
-      if (glfwJoystickIsGamepad(GLFW_JOYSTICK_1) && glfwGetGamepadState(GLFW_JOYSTICK_1, &pad)) {
-        const float x = pad.axes[GLFW_GAMEPAD_AXIS_LEFT_X], y = -pad.axes[GLFW_GAMEPAD_AXIS_LEFT_Y];
-        if (std::abs(x) > 0.15f || std::abs(y) > 0.15f) in.jog = Eigen::Vector2d(x, y);
-        for (auto [button, command] : gamepad_bindings()) {
-          if (pad.buttons[button] && !previous_buttons[button]) in.commands.push_back(command);
-          previous_buttons[button] = pad.buttons[button];
-        }
-      }
-      if (glfwWindowShouldClose(window)) {
-        in.close_requested = true;
-        glfwSetWindowShouldClose(window, GLFW_FALSE);  // the console decides (it may ask first)
-      }
-      ImGui_ImplOpenGL3_NewFrame();
-      ImGui_ImplGlfw_NewFrame();
-      ImGui::NewFrame();
-      console.frame(in);
-      int w = 0, h = 0;
-      glfwGetFramebufferSize(window, &w, &h);
-      render_imgui(w, h);
-      save_shots(console, run.screenshots, w, h, nullptr);
-      glfwSwapBuffers(window);
-    }
-    console.shutdown();
-    ImGui_ImplOpenGL3_Shutdown();
-    ImGui_ImplGlfw_Shutdown();
-  }
-  g_commands = nullptr;
-  ImGui::DestroyContext();
-  glfwDestroyWindow(window);
-  glfwTerminate();
-  return code;
+int run_window(ConsoleOptions options, const ConsoleRunOptions& run) {
+  WindowPlatform platform(run, "diffdagger: " + options.config.task + ", " + options.method);
+  return run_console(options, run, platform);
 }
 
 }  // namespace dd::ui

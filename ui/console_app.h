@@ -1,4 +1,5 @@
-// The console's two platform layers around the same Console::frame():
+// The console's two platforms, driving one loop around the same Console::frame() (console_app.cpp:
+// a Platform gives each frame's input and presents it; run_console is the loop):
 //   run_window    a GLFW window (OpenGL compatibility profile), keyboard, mouse and gamepad
 //   run_headless  EGL with no display at a fixed time step, the scripted expert (or a script of input
 //                 events) playing the operator, screenshots at named events
