@@ -766,6 +766,50 @@ EvalCell parse_eval_cell(const std::string& id, const std::vector<std::string>& 
   return c;
 }
 
+namespace {
+
+// RQ1's rollouts, one JSON line each, so that a stopped cell keeps the ones that ended.
+void append_rollout(const std::string& path, const RolloutResult& r) {
+  const nlohmann::json j{{"success", r.success}, {"queried", r.queried}, {"first_query_step", r.first_query_step},
+                         {"outcome", r.outcome}, {"steps", r.steps},     {"decisions", r.decisions},
+                         {"inference_s", r.inference_s}, {"compare_queried", r.compare_queried}};
+  std::ofstream f(path, std::ios::app);
+  f << j.dump() << "\n";
+  f.flush();
+  if (!f) throw Error(path + ": could not append a rollout (disk full?)");
+}
+
+// The rollouts a stopped cell wrote; a last line cut short by the stop is dropped (that episode runs again).
+std::vector<RolloutResult> read_rollouts(const std::string& path) {
+  std::vector<RolloutResult> out;
+  if (!fs::exists(path)) return out;
+  std::istringstream lines(read_text(path));
+  std::string line;
+  int n = 0;
+  while (std::getline(lines, line)) {
+    ++n;
+    if (lines.eof() && !line.empty()) break;  // no newline: cut short
+    try {
+      const nlohmann::json j = nlohmann::json::parse(line);
+      RolloutResult r;
+      r.success = j.at("success").get<bool>();
+      r.queried = j.at("queried").get<bool>();
+      r.first_query_step = j.at("first_query_step").get<int>();
+      r.outcome = j.at("outcome").get<std::string>();
+      r.steps = j.at("steps").get<int>();
+      r.decisions = j.at("decisions").get<int>();
+      r.inference_s = j.at("inference_s").get<double>();
+      r.compare_queried = j.at("compare_queried").get<std::vector<uint8_t>>();
+      out.push_back(r);
+    } catch (const nlohmann::json::exception& e) {
+      throw Error(path + ": line " + std::to_string(n) + " is not a rollout (" + e.what() + "); remove the file to run its rollouts again");
+    }
+  }
+  return out;
+}
+
+}  // namespace
+
 void run_eval(const ExperimentConfig& config, const EvalOptions& o) {
   config.validate();
   make_dirs(o.out + "/cells");
@@ -833,25 +877,50 @@ void run_eval(const ExperimentConfig& config, const EvalOptions& o) {
     const ExperimentConfig c = seed_config(s);
     const uint64_t eval_seed = eval_seed_of(s);
     auto m = make_method(name, c.policy, c.method, c.dagger.seed);
-    const auto demos = collect_demos(c.task, c.expert, c.rq1_demos, c.dagger.seed);
-    // The methods' RQ1 policies are one ensemble per seed, trained once (Diff-DAgger's is member 0).
-    m->adopt(rq1_policies(c, method_info(name).ensemble ? c.method.members : 1, demos, o.out + "/rq1_policies/seed" + std::to_string(s),
-                          fmt::format("[seed {}] RQ1", s)),
-             demos, {});
+    // What a stopped cell keeps (out/partial/STEM, removed when the cell is written): the method as
+    // the rollouts see it (policies, thresholds, Thrifty's critic), saved once it is ready, and each
+    // rollout as it ends. Rollouts are independent (episode e runs from seed eval_seed + e with the
+    // method unchanged), so continuing gives the very numbers an unstopped cell would.
+    const std::string partial = o.out + "/partial/" + EvalCell{name, s, true}.stem();
+    const std::string state_dir = partial + "/method", rollouts_file = partial + "/rollouts.jsonl";
     double risk_data_s = 0;
-    if (method_info(name).learns_risk) {
-      // The critic learns from robot rollouts too: roll out, then refit the critic alone (the
-      // policies keep the budget every method gets). Those rollouts are Thrifty's extra cost.
-      std::vector<RecordedEpisode> robot;
+    if (fs::exists(state_dir + "/method.json")) {
+      m->load_state(state_dir);
+      risk_data_s = nlohmann::json::parse(read_text(partial + "/prepared.json")).at("risk_data_s").get<double>();
+      fmt::print(stderr, "[seed {}] RQ1 {:8} continues from {}\n", s, name, partial);
+    } else {
+      const auto demos = collect_demos(c.task, c.expert, c.rq1_demos, c.dagger.seed);
+      // The methods' RQ1 policies are one ensemble per seed, trained once (Diff-DAgger's is member 0).
+      const auto policies = rq1_policies(c, method_info(name).ensemble ? c.method.members : 1, demos,
+                                         o.out + "/rq1_policies/seed" + std::to_string(s), fmt::format("[seed {}] RQ1", s));
       const auto t = std::chrono::steady_clock::now();
-      evaluate_rollouts(*env, *m, std::max(5, o.episodes / 5), spec, eval_seed + 500, {}, &robot);
-      risk_data_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count();
-      risk_data_s += m->refit_risk(demos, robot);
+      fmt::print(stderr, "[seed {}] RQ1 {:8} setting {} threshold{} over the training pairs...\n", s, name, 1 + m->compare_rules().size(),
+                 m->compare_rules().empty() ? "" : "s");
+      m->adopt(policies, demos, {});
+      fmt::print(stderr, "[seed {}] RQ1 {:8} thresholds set in {:.0f} s\n", s, name,
+                 std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count());
+      if (method_info(name).learns_risk) {
+        // The critic learns from robot rollouts too: roll out, then refit the critic alone (the
+        // policies keep the budget every method gets). Those rollouts are Thrifty's extra cost.
+        std::vector<RecordedEpisode> robot;
+        const auto t = std::chrono::steady_clock::now();
+        evaluate_rollouts(*env, *m, std::max(5, o.episodes / 5), spec, eval_seed + 500, {}, &robot);
+        risk_data_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count();
+        risk_data_s += m->refit_risk(demos, robot);
+      }
+      m->save_state(state_dir);
+      write_text(partial + "/prepared.json", nlohmann::json{{"risk_data_s", risk_data_s}}.dump() + "\n");
+      fs::remove(rollouts_file);  // rollouts of a method that was not saved are not these rollouts
     }
-    std::vector<RolloutResult> results;
+    std::vector<RolloutResult> results = read_rollouts(rollouts_file);
     {
       ProgressBar bar(fmt::format("[seed {}] RQ1 {:8} rollouts", s, name), "success");
-      results = evaluate_rollouts(*env, *m, o.episodes, spec, eval_seed, bar.fn());
+      bar.resume_from(static_cast<int>(results.size()));
+      for (int e = static_cast<int>(results.size()); e < o.episodes; ++e) {
+        results.push_back(evaluate_rollouts(*env, *m, 1, spec, eval_seed + static_cast<uint64_t>(e)).front());
+        append_rollout(rollouts_file, results.back());
+        bar.update(e + 1, o.episodes, success_rate(results));
+      }
     }
     auto prediction_json = [](const FailurePrediction& p) {
       return nlohmann::json{{"tpr", p.tpr}, {"tnr", p.tnr}, {"f1", p.f1}, {"acc", p.accuracy},
@@ -864,6 +933,7 @@ void run_eval(const ExperimentConfig& config, const EvalOptions& o) {
     const std::vector<std::string> rules = m->compare_rules();
     for (size_t i = 0; i < rules.size(); ++i) j["compare"][rules[i]] = prediction_json(failure_prediction(results, i));
     save_cell(cell_file(name, s, true), j);
+    fs::remove_all(partial);
   };
   // RQ2 and RQ3: interactive learning to N_f, then rollouts of the final policy.
   auto run_rq2_cell = [&](const std::string& name, int s) {

@@ -119,11 +119,16 @@ class DiffMethod : public Method {
   }
 
  protected:
-  nlohmann::json state(const std::string& /*dir*/) const override { return {{"updates", updates_}, {"threshold", number_or_null(threshold_)}}; }
+  nlohmann::json state(const std::string& /*dir*/) const override {
+    nlohmann::json j{{"updates", updates_}, {"threshold", number_or_null(threshold_)}};
+    for (size_t i = 0; i < compare_.size(); ++i) j["compare_thresholds"][compare_[i].name()] = number_or_null(compare_thresholds_[i]);
+    return j;
+  }
   void restore(const nlohmann::json& j, const std::string& dir) override {
     policy_.load(dir + "/policy.pt");
     updates_ = j.at("updates").get<uint64_t>();
     threshold_ = number_or_inf(j.at("threshold"));
+    for (size_t i = 0; i < compare_.size(); ++i) compare_thresholds_[i] = number_or_inf(j.at("compare_thresholds").at(compare_[i].name()));
   }
 
  private:

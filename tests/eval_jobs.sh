@@ -40,6 +40,34 @@ done
 ls "$dir/rq1/cells" | grep -q rq2 && { echo "FAIL: --only-rq1 ran a DAgger cell"; exit 1; }
 [[ ! -e $dir/rq1/report.md ]] || { echo "FAIL: --only-rq1 wrote a report"; exit 1; }
 grep -q "RQ1 diff " "$dir/rq1.log" || { echo "FAIL: --only-rq1 did not print the RQ1 numbers"; cat "$dir/rq1.log"; exit 1; }
+# an RQ1 cell stopped (kill -9) during its rollouts continues where it stopped: the method as saved,
+# the rollouts that ended kept, and the same numbers (compared rules included) as an unstopped cell
+cat > "$dir/cmp.yaml" <<'YAML'
+preset: nav2d
+train: {steps: 30, batch_size: 32, warmup_steps: 10}
+method: {members: 2, critic_steps: 50, loss_samples: 64, compare_scores: [epsilon, "target@2"]}
+rq1_demos: 2
+YAML
+cmp_args=(--threads 1 eval --task nav2d --config "$dir/cmp.yaml" --episodes 16 --methods diff --only-rq1)
+"$bin" "${cmp_args[@]}" --out "$dir/whole" > "$dir/whole.log" 2>&1 || { cat "$dir/whole.log"; exit 1; }
+"$bin" "${cmp_args[@]}" --out "$dir/stopped" > "$dir/stopped.log" 2>&1 &
+pid=$!
+rollouts=$dir/stopped/partial/diff_seed0_rq1/rollouts.jsonl
+for _ in $(seq 1 1200); do
+  [[ -f $rollouts ]] && (( $(wc -l < "$rollouts") >= 3 )) && break
+  kill -0 $pid 2>/dev/null || break
+  sleep 0.05
+done
+kill -9 $pid 2>/dev/null || { echo "FAIL: the cell ended before it could be stopped"; cat "$dir/stopped.log"; exit 1; }
+wait $pid 2>/dev/null || true
+[[ ! -f $dir/stopped/cells/diff_seed0_rq1.json ]] || { echo "FAIL: a stopped cell was written"; exit 1; }
+"$bin" "${cmp_args[@]}" --out "$dir/stopped" > "$dir/resumed.log" 2>&1 || { cat "$dir/resumed.log"; exit 1; }
+grep -q "continues from" "$dir/resumed.log" || { echo "FAIL: the rerun did not continue the stopped cell"; cat "$dir/resumed.log"; exit 1; }
+strip() { grep -v '"episodes"\|risk_data_s' "$1"; }
+cmp -s <(strip "$dir/whole/cells/diff_seed0_rq1.json") <(strip "$dir/stopped/cells/diff_seed0_rq1.json") ||
+  { echo "FAIL: the continued cell differs from the unstopped one"; diff "$dir/whole/cells/diff_seed0_rq1.json" "$dir/stopped/cells/diff_seed0_rq1.json"; exit 1; }
+grep -q '"target@2"' "$dir/whole/cells/diff_seed0_rq1.json" || { echo "FAIL: no compared rule in the cell"; exit 1; }
+[[ ! -e $dir/stopped/partial/diff_seed0_rq1 ]] || { echo "FAIL: the finished cell left its partial folder"; exit 1; }
 # a cell that cannot run: the rerun names it and its log, keeps the others, and fails
 rm "$dir/two/cells/bc_seed0_rq2.json" "$dir/two/cells/diff_seed0_rq2.json"
 rm -rf "$dir/two/runs" && touch "$dir/two/runs"  # no folder can be made for their runs
@@ -49,4 +77,4 @@ fi
 grep -q "cells failed" "$dir/fail.log" && grep -q "logs/bc_seed0_rq2.log" "$dir/fail.log" ||
   { echo "FAIL: the failed cells and their logs are not named"; cat "$dir/fail.log"; exit 1; }
 [[ -f $dir/two/cells/thrifty_seed0_rq2.json ]] || { echo "FAIL: a finished cell was lost"; exit 1; }
-echo "eval --jobs: same RQ1 and RQ2 as one process, logs per cell, failures named"
+echo "eval --jobs: same RQ1 and RQ2 as one process, logs per cell, failures named; a stopped RQ1 cell continues to the same numbers"
