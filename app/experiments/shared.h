@@ -1,0 +1,27 @@
+// What the experiment files share, internal to app/experiments/: folders, means, resume points.
+#pragma once
+
+#include <filesystem>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "core/task_config.h"
+
+namespace dd::app {
+
+namespace fs = std::filesystem;
+
+/// Creates `dir` and its parents; throws Error naming it when it cannot.
+void make_dirs(const std::string& dir);
+/// Mean and (population) standard deviation; NaN for an empty set.
+std::pair<double, double> mean_std(const std::vector<double>& v);
+double mean(const std::vector<double>& v);
+/// The resume point a stopped run left in `out` (the JSON file `marker`, with the integer fields
+/// `required`), or null when there is none. A point left by a run with another config is refused.
+nlohmann::json read_resume_point(const std::string& out, const std::string& marker, const ExperimentConfig& config,
+                                 const std::vector<std::string>& required);
+
+}  // namespace dd::app
