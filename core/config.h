@@ -20,6 +20,18 @@ class Error : public std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
+/// The row of a registry (rows with a `name`) called `name`; throws Error "unknown WHAT 'NAME' (known:
+/// a, b, ...)" when there is none. Tasks (envs/registry.h) and methods (core/method.h) are found so.
+template <typename Row>
+const Row& find_named(const std::vector<Row>& rows, const std::string& name, const std::string& what) {
+  std::string known;
+  for (const Row& r : rows) {
+    if (r.name == name) return r;
+    known += (known.empty() ? "" : ", ") + r.name;
+  }
+  throw Error("unknown " + what + " '" + name + "' (known: " + known + ")");
+}
+
 /// What the network is trained to predict.
 enum class PredictionType { kEpsilon, kSample, kVelocity };
 

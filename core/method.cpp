@@ -453,13 +453,7 @@ const std::vector<MethodInfo>& method_registry() {
   return rows;
 }
 
-const MethodInfo& method_info(const std::string& name) {
-  for (const MethodInfo& m : method_registry())
-    if (m.name == name) return m;
-  std::string known;
-  for (const MethodInfo& m : method_registry()) known += (known.empty() ? "" : ", ") + m.name;
-  throw Error("unknown method '" + name + "' (known: " + known + ")");
-}
+const MethodInfo& method_info(const std::string& name) { return find_named(method_registry(), name, "method"); }
 
 std::vector<std::string> method_names() {
   std::vector<std::string> names;

@@ -85,13 +85,7 @@ const std::vector<TaskInfo>& task_registry() {
   return rows;
 }
 
-const TaskInfo& task_info(const std::string& task) {
-  for (const TaskInfo& t : task_registry())
-    if (t.name == task) return t;
-  std::string known;
-  for (const TaskInfo& t : task_registry()) known += (known.empty() ? "" : ", ") + t.name;
-  throw Error("unknown task '" + task + "' (known: " + known + ")");
-}
+const TaskInfo& task_info(const std::string& task) { return find_named(task_registry(), task, "task"); }
 
 std::vector<std::string> task_names() {
   std::vector<std::string> names;

@@ -260,7 +260,7 @@ EvalCell parse_eval_cell(const std::string& id, const std::vector<std::string>& 
   c.seed = std::stoi(seed);
   if (kind != "rq1" && kind != "rq2") throw Error(bad + "'" + kind + "' is not rq1 or rq2");
   c.rq1 = kind == "rq1";
-  if (c.rq1 && !method_info(c.method).gated) throw Error(bad + method_info(c.method).title + " never asks: it has no RQ1 cell");
+  if (c.rq1 && !method_info(c.method).gated) throw Error(bad + method_info(c.method).title + " has no RQ1 cell (it never asks)");
   return c;
 }
 
