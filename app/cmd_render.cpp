@@ -33,8 +33,8 @@ Command add_render(CLI::App& app) {
       ->capture_default_str();
   return [o] {
     auto env = make_env(o->task);
-    auto* arm = dynamic_cast<mj::ArmEnv*>(env.get());
-    if (!arm) throw Error("render: task '" + o->task + "' is not a MuJoCo task");
+    const std::optional<PhysicsScene> physics = env->physics();
+    if (!physics) throw Error("render: task '" + o->task + "' is not a MuJoCo task");
     env->reset(o->seed);
     auto expert = make_expert(o->task, "mixed");
     expert->reset(o->seed);
@@ -44,7 +44,7 @@ Command add_render(CLI::App& app) {
     std::string error;
     auto gl = ui::HeadlessGL::create(64, 64, &error);
     if (!gl) throw Error(error);
-    ui::MujocoView view(arm->model());
+    ui::MujocoView view(physics->model);
     if (!o->policy.empty()) {
       // film a rollout of the policy: the executed chunk's T_a actions per decision, like evaluation
       auto policy = DiffusionPolicy::from_checkpoint(o->policy);
@@ -59,7 +59,7 @@ Command add_render(CLI::App& app) {
         const Mat chunk = policy->sample(env->observation(), o->seed * 7919 + decision);
         for (int k = 0; k < policy->config().action_steps && !done; ++k) {
           if (env->steps() % every == 0) {
-            ui::Image frame = view.free(arm->data(), ui::FreeCamera{}, 320, 240);
+            ui::Image frame = view.free(physics->data, ui::FreeCamera{}, 320, 240);
             ui::write_png(o->out + "/" + o->task + "_step" + std::to_string(env->steps()) + ".png", frame);
             if (strip.size() < 12) strip.push_back(std::move(frame));
           }
@@ -74,11 +74,11 @@ Command add_render(CLI::App& app) {
     }
     for (const std::string& name : view.camera_names()) {
       const std::string path = o->out + "/" + o->task + "_" + name + ".png";
-      ui::write_png(path, view.camera(arm->data(), name, o->size, o->size, true));
+      ui::write_png(path, view.camera(physics->data, name, o->size, o->size, true));
       spdlog::info("{}", path);
     }
     const std::string path = o->out + "/" + o->task + "_free.png";
-    ui::write_png(path, view.free(arm->data(), ui::FreeCamera{}, 640, 480));
+    ui::write_png(path, view.free(physics->data, ui::FreeCamera{}, 640, 480));
     spdlog::info("{}", path);
     return 0;
   };

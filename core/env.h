@@ -50,6 +50,36 @@ class Teleoperation {
   virtual std::optional<Eigen::Vector3d> target() const { return std::nullopt; }
 };
 
+/// A 2-D task seen from above (Env::plane), for a console to draw: the arena, where episodes start,
+/// the goal, this episode's obstacles and the agent, in the task's plane coordinates.
+struct PlaneScene {
+  struct Disc {
+    Eigen::Vector2d center{0, 0};
+    double radius = 0;
+  };
+  double half = 1;  // the arena spans [-half, half] on both axes, inside its walls
+  Eigen::Vector2d start_center{0, 0};
+  double start_half = 0;  // episodes start in this square
+  Disc goal;
+  std::vector<Disc> obstacles;
+  Disc agent;
+};
+
+}  // namespace dd
+
+// MuJoCo's model and data, declared without its headers: core never includes the simulator.
+struct mjModel_;
+struct mjData_;
+
+namespace dd {
+
+/// A physics task's MuJoCo model and state (Env::physics), for a console to render. Both live as long
+/// as the Env; the data changes as it steps.
+struct PhysicsScene {
+  const mjModel_* model = nullptr;
+  const mjData_* data = nullptr;
+};
+
 class Env {
  public:
   virtual ~Env() = default;
@@ -83,6 +113,21 @@ class Env {
 
   /// How an operator drives this task (null: it cannot be teleoperated).
   virtual std::unique_ptr<Teleoperation> teleoperation() const { return nullptr; }
+
+  // How a console shows the task, without knowing its type: a plane seen from above (2-D tasks) or a
+  // physics scene for MuJoCo's renderer; a task with neither is not drawn.
+  virtual std::optional<PlaneScene> plane() const { return std::nullopt; }
+  virtual std::optional<PhysicsScene> physics() const { return std::nullopt; }
+  /// The points a chunk of actions sends the agent to, one per row, in the scene's coordinates (a
+  /// plane's x, y and 0; a physics scene's world x, y, z); empty where actions are not positions.
+  virtual std::vector<Eigen::Vector3d> action_points(const Mat& /*chunk*/) const { return {}; }
+  /// Where an observation puts the agent, in the same coordinates (for drawing demonstrations); none
+  /// where the task does not say.
+  virtual std::optional<Eigen::Vector3d> observed_point(const Vec& /*obs*/) const { return std::nullopt; }
+  /// The observation the policy would get with the agent at rest at plane point p and the rest of this
+  /// episode as it is (to map a policy's score over the plane); none where p is not free or the task
+  /// has no plane.
+  virtual std::optional<Vec> observation_at_rest(const Eigen::Vector2d& /*p*/) const { return std::nullopt; }
 };
 
 /// An expert that acts in an Env (a scripted controller, a planner, or a human at the console).

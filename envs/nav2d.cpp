@@ -76,12 +76,41 @@ Vec2 Nav2dEnv::velocity() const {
   return {v.x, v.y};
 }
 
-Vec Nav2dEnv::observation() const {
-  const Vec2 p = position(), v = velocity();
+Vec Nav2dEnv::observation() const { return observe(position(), velocity()); }
+
+Vec Nav2dEnv::observe(const Vec2& p, const Vec2& v) const {
   Vec o(obs_dim());
   o.head(4) << static_cast<float>(p.x()), static_cast<float>(p.y()), static_cast<float>(v.x()), static_cast<float>(v.y());
   if (config_.observe_obstacle) o.tail(2) << static_cast<float>(obstacle_center_.x()), static_cast<float>(obstacle_center_.y());
   return o;
+}
+
+std::optional<PlaneScene> Nav2dEnv::plane() const {
+  PlaneScene s;
+  s.half = config_.arena_half;
+  s.start_center = config_.start_center;
+  s.start_half = config_.start_half;
+  s.goal = {config_.goal, config_.goal_radius};
+  s.obstacles = {{obstacle_center_, config_.obstacle_radius}};
+  s.agent = {position(), config_.agent_radius};
+  return s;
+}
+
+std::vector<Eigen::Vector3d> Nav2dEnv::action_points(const Mat& chunk) const {
+  std::vector<Eigen::Vector3d> points;
+  if (chunk.cols() < 2) return points;
+  for (Eigen::Index r = 0; r < chunk.rows(); ++r) points.emplace_back(chunk(r, 0), chunk(r, 1), 0.0);
+  return points;
+}
+
+std::optional<Eigen::Vector3d> Nav2dEnv::observed_point(const Vec& obs) const {
+  if (obs.size() < 2) return std::nullopt;
+  return Eigen::Vector3d(obs[0], obs[1], 0.0);
+}
+
+std::optional<Vec> Nav2dEnv::observation_at_rest(const Vec2& p) const {
+  if (!is_free(p)) return std::nullopt;
+  return observe(p, Vec2::Zero());
 }
 
 StepResult Nav2dEnv::step(const Vec& action) {

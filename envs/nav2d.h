@@ -66,6 +66,12 @@ class Nav2dEnv : public Env {
   void restore_state(const std::vector<double>& state) override;
   /// The operator commands a target position: the dragged point, or a step along the jog direction.
   std::unique_ptr<Teleoperation> teleoperation() const override;
+  /// The arena, start square, goal, this episode's obstacle and the agent; actions and observations
+  /// start with plane positions.
+  std::optional<PlaneScene> plane() const override;
+  std::vector<Eigen::Vector3d> action_points(const Mat& chunk) const override;
+  std::optional<Eigen::Vector3d> observed_point(const Vec& obs) const override;
+  std::optional<Vec> observation_at_rest(const Eigen::Vector2d& p) const override;
 
   const Nav2dConfig& config() const { return config_; }
   Vec2 position() const;
@@ -78,6 +84,8 @@ class Nav2dEnv : public Env {
   const Vec2& obstacle_center() const { return obstacle_center_; }
 
  private:
+  Vec observe(const Vec2& p, const Vec2& v) const;  // the observation's layout, in one place
+
   Nav2dConfig config_;
   std::unique_ptr<b2World> world_;
   b2Body* agent_ = nullptr;

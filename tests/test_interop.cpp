@@ -151,7 +151,7 @@ TEST_F(Interop, MalformedInputNamesFileAndKey) {
     return testing::AssertionSuccess();
   };
   const std::string key = "down_modules.1.0.blocks.1.block.0.weight";
-  std::string sd = edited([&](Dict& d) { d.erase(key); });
+  std::string sd = edited([&](Dict& d) { ASSERT_EQ(d.erase(key), 1u); });
   EXPECT_TRUE(has(message_of(sd, json_), {sd, "missing key", key}));
 
   sd = edited([&](Dict& d) { d.insert_or_assign(key, torch::zeros({3, 3, 3})); });

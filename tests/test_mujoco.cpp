@@ -470,6 +470,23 @@ TEST(ArmTeleoperation, TheTargetStartsAtTheToolMovesWithTheViewAndTheGripperTogg
   EXPECT_LT((teleop->action(env, OperatorInput{}).head<3>().cast<double>() - tcp).norm(), 1e-5);
 }
 
+TEST(Mujoco, ArmTasksDescribeAPhysicsSceneAndTheirChunksAsTcpPoints) {
+  StackEnv env;
+  env.reset(3);
+  const std::optional<PhysicsScene> physics = env.physics();
+  ASSERT_TRUE(physics);
+  EXPECT_EQ(physics->model, env.model());
+  EXPECT_EQ(physics->data, env.data());
+  EXPECT_FALSE(env.plane());
+  EXPECT_FALSE(env.observation_at_rest({0, 0}));
+  ASSERT_EQ(env.control(), ArmControl::kEndEffectorPose);
+  Mat chunk = Mat::Zero(4, env.action_dim());
+  for (int r = 0; r < 4; ++r) chunk.row(r).head<3>() << 0.4f + 0.01f * r, -0.1f, 0.2f;
+  const auto points = env.action_points(chunk);
+  ASSERT_EQ(points.size(), 4u);
+  EXPECT_TRUE(points[3].isApprox(Eigen::Vector3d(0.43, -0.1, 0.2), 1e-6));
+}
+
 }  // namespace dd::mj
 
 namespace dd {

@@ -179,4 +179,33 @@ TEST(Nav2dEnv, TeleoperationCommandsATargetPosition) {
   EXPECT_FLOAT_EQ(a[1], -0.4f);
 }
 
+TEST(Nav2dEnv, DescribesItsPlaneAndTheObservationAtRestAnywhere) {
+  Nav2dEnv env(nav2d_random_config());
+  env.reset(11);
+  for (int i = 0; i < 5; ++i) env.step(env.observation().head<2>() + Vec::Constant(2, 0.05f));
+  const std::optional<PlaneScene> plane = env.plane();
+  ASSERT_TRUE(plane);
+  EXPECT_FALSE(env.physics());
+  EXPECT_DOUBLE_EQ(plane->half, env.config().arena_half);
+  ASSERT_EQ(plane->obstacles.size(), 1u);
+  EXPECT_EQ(plane->obstacles[0].center, env.obstacle_center());  // this episode's, not the default
+  EXPECT_EQ(plane->agent.center, env.position());
+  EXPECT_DOUBLE_EQ(plane->goal.radius, env.config().goal_radius);
+  // at rest where the agent is, the observation is the env's own with the velocity zeroed
+  const std::optional<Vec> here = env.observation_at_rest(env.position());
+  ASSERT_TRUE(here);
+  Vec expected = env.observation();
+  expected.segment<2>(2).setZero();
+  EXPECT_TRUE(here->isApprox(expected)) << here->transpose() << " vs " << expected.transpose();
+  EXPECT_FALSE(env.observation_at_rest(env.obstacle_center()));  // inside the obstacle: no such state
+  EXPECT_FALSE(env.observation_at_rest({5, 5}));                 // beyond the walls
+  // actions and observations start with plane positions
+  Mat chunk(3, 2);
+  chunk << 0.1f, 0.2f, 0.3f, 0.4f, 0.5f, 0.6f;
+  const auto points = env.action_points(chunk);
+  ASSERT_EQ(points.size(), 3u);
+  EXPECT_TRUE(points[2].isApprox(Eigen::Vector3d(0.5, 0.6, 0), 1e-6));
+  EXPECT_TRUE(env.observed_point(env.observation())->head<2>().isApprox(env.position(), 1e-5));
+}
+
 }  // namespace dd

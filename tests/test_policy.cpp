@@ -115,7 +115,9 @@ TEST_F(BimodalPolicy, LossByTimestepAveragesToTheExpectedLossAndConvertsBetweenS
     const size_t i = static_cast<size_t>(t);
     EXPECT_NEAR(vv[i], v[i], 1e-4 * v[i] + 1e-7) << "t " << t;
     EXPECT_NEAR(eps[i] / v[i] + x0[i] / v[i], 1.0, 1e-3) << "t " << t;
-    if (t > 0) EXPECT_LT(eps[i] / v[i], eps[i - 1] / v[i - 1]) << "alpha_bar falls with t";
+    if (t > 0) {
+      EXPECT_LT(eps[i] / v[i], eps[i - 1] / v[i - 1]) << "alpha_bar falls with t";
+    }
   }
   // every space from one pass: the same numbers as one space at a time
   const std::vector<std::vector<float>> all =

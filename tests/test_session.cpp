@@ -260,7 +260,9 @@ TEST(Session, RecordsWhoActedAtEveryStep) {
   for (size_t t = 0; t < corrected.actor.size(); ++t) {
     EXPECT_EQ(corrected.intervention[t], corrected.actor[t] == 0 ? 0 : 1) << "step " << t;
     robot_steps += corrected.actor[t] == 0;
-    if (t > 0) EXPECT_GE(corrected.actor[t], corrected.actor[t - 1]) << "the robot acts first, then the expert";
+    if (t > 0) {
+      EXPECT_GE(corrected.actor[t], corrected.actor[t - 1]) << "the robot acts first, then the expert";
+    }
   }
   EXPECT_GT(robot_steps, 0u);
   std::filesystem::remove(path);

@@ -80,8 +80,6 @@ Console::Console(const ConsoleOptions& options) : s_(std::make_unique<State>()) 
   if (fs::exists(dataset))
     throw Error(dataset + ": already exists; a console session never mixes its data into an earlier one's (choose another --out)");
   s.env = make_env(c.task);
-  s.nav = dynamic_cast<Nav2dEnv*>(s.env.get());
-  s.arm = dynamic_cast<mj::ArmEnv*>(s.env.get());
   s.teleop = s.env->teleoperation();
   if (!s.teleop) throw Error("console: task " + c.task + " cannot be driven by an operator (its Env has no teleoperation)");
   s.scripted = make_expert(c.task, s.o.expert_mode.empty() ? c.expert : s.o.expert_mode);
@@ -106,8 +104,10 @@ Console::Console(const ConsoleOptions& options) : s_(std::make_unique<State>()) 
   std::string error;
   s.scene = Scene2d::create(640, 640, &error);
   if (!s.scene) throw Error("console: " + error);
-  if (s.arm) {
-    s.mjview = std::make_unique<MujocoView>(s.arm->model());
+  s.physics = s.env->physics();
+  if (s.physics) {
+    s.mjview = std::make_unique<MujocoView>(s.physics->model);
+    s.cameras = s.mjview->camera_names();
     glGenTextures(1, &s.mj_tex);
   }
   spdlog::info("console: {} on {}, data set {}, log {}", s.o.method, c.task, dataset, s.log->path());
@@ -123,8 +123,8 @@ Console::~Console() {
 
 int Console::episode() const { return s_->session->episode(); }
 int Console::updates() const { return s_->session->updates(); }
-int Console::queries() const { return s_->queries; }
-int Console::operator_takeovers() const { return s_->takeovers; }
+int Console::queries() const { return s_->view.counts().queries; }
+int Console::operator_takeovers() const { return s_->view.counts().takeovers; }
 bool Console::session_done() const { return s_->session->done(); }
 const std::string& Console::log_path() const { return s_->log->path(); }
 bool Console::quit() const { return s_->quitting; }
@@ -226,8 +226,8 @@ void Console::frame(const FrameInput& in) {
   loss_plot(s, ImVec2(x, top), ImVec2(w, h * 0.42f));
   timeline_view(s, ImVec2(x, top + h * 0.42f + margin), ImVec2(w, h * 0.30f - margin));
   session_view(s, ImVec2(x, top + h * 0.72f + margin), ImVec2(w, h * 0.28f - margin));
-  help_overlay(s, size);
-  close_dialog(s);
+  help_overlay(s, size, s.from_views);
+  close_dialog(s, s.from_views);
 }
 
 }  // namespace dd::ui

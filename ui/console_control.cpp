@@ -15,22 +15,14 @@ namespace fs = std::filesystem;
 
 void handle_event(Console::State& s, const SessionEvent& e) {
   (*s.log)(e);
+  s.view.on_event(e, s.session->expert_acted());
   switch (e.kind) {
     case EventKind::kEpisodeStart:
-      s.timelines.push_back({e.episode, {}, false, false});
-      while (s.timelines.size() > 64) s.timelines.pop_front();
-      s.path.clear();
       s.answering = Console::State::Answer::kNobody;
       s.awaiting = false;
       s.dragging = false;
       break;
-    case EventKind::kDecision:
-      s.decisions.push_back({s.decision_count++, e.episode, e.score, e.threshold, e.violation, e.run, e.risk_q, e.reason});
-      while (s.decisions.size() > 400) s.decisions.pop_front();
-      s.last_decision_ms = e.inference_s * 1e3;
-      break;
     case EventKind::kQuery:
-      ++s.queries;
       if (s.o.pause_on_query) {
         s.awaiting = true;
         s.answering = Console::State::Answer::kNobody;
@@ -42,12 +34,10 @@ void handle_event(Console::State& s, const SessionEvent& e) {
       break;
     case EventKind::kTakeover:
       if (e.control == Control::kOperator) {
-        ++s.takeovers;
         s.teleop->begin();
         s.answering = Console::State::Answer::kOperator;
         s.takeover_steps = 0;
       } else if (e.control == Control::kExpertTimeout) {
-        ++s.timeouts;
         s.answering = Console::State::Answer::kScripted;
       }
       break;
@@ -57,20 +47,11 @@ void handle_event(Console::State& s, const SessionEvent& e) {
       s.dragging = false;
       break;
     case EventKind::kEpisodeEnd:
-      if (!s.timelines.empty()) {
-        s.timelines.back().ended = true;
-        s.timelines.back().success = e.success;
-      }
-      if (e.control == Control::kRobot && !s.session->expert_acted()) {
-        ++s.robot_episodes;
-        if (e.success) ++s.robot_successes;
-      }
       s.awaiting = false;
       if (s.takeover_steps >= 0) s.request_shot("takeover");
       s.takeover_steps = -1;
       break;
     case EventKind::kUpdateFinished:
-      s.last_report = e.report;
       s.field_valid = false;
       s.update_shot_due = true;  // taken once the worker is idle (the checkpoint is written)
       break;
@@ -99,31 +80,27 @@ void start_update(Console::State& s) {
   });
 }
 
-// The method's score over a grid of positions at rest (the obstacle where it is this episode).
+// The method's score over a grid of plane points, the agent at rest there and the rest of the episode
+// as it is (the obstacle where it is now). The observations are taken here, on the frame thread; the
+// worker only scores them.
 void start_field(Console::State& s) {
-  if (!s.nav || s.session->updates() == 0) return;
-  const Eigen::Vector2d center = s.nav->obstacle_center();
-  const int n = s.field_n, obs_dim = s.env->obs_dim();
-  const Nav2dEnv& nav = *s.nav;
+  const std::optional<PlaneScene> plane = s.env->plane();
+  if (!plane || s.session->updates() == 0) return;
+  const int n = s.field_n;
+  const double half = plane->half;
+  std::vector<std::pair<int, Vec>> probes;  // grid cell, observation
+  for (int j = 0; j < n; ++j)
+    for (int i = 0; i < n; ++i)
+      if (auto obs = s.env->observation_at_rest({-half + (i + 0.5) * 2 * half / n, -half + (j + 0.5) * 2 * half / n}))
+        probes.emplace_back(j * n + i, std::move(*obs));
   Method& method = *s.method;
-  s.worker.start(WorkerJob::kField, [&s, &nav, &method, center, n, obs_dim](std::atomic<float>& progress) -> Worker::Apply {
-    const double half = nav.config().arena_half;
+  s.worker.start(WorkerJob::kField, [&s, &method, probes = std::move(probes), n](std::atomic<float>& progress) -> Worker::Apply {
     std::vector<float> logs(static_cast<size_t>(n * n), NAN);
-    for (int j = 0; j < n; ++j) {
-      for (int i = 0; i < n; ++i) {
-        const Eigen::Vector2d p(-half + (i + 0.5) * 2 * half / n, -half + (j + 0.5) * 2 * half / n);
-        if (!nav.is_free(p)) continue;
-        Vec obs = Vec::Zero(obs_dim);
-        obs[0] = static_cast<float>(p.x());
-        obs[1] = static_cast<float>(p.y());
-        if (obs.size() >= 6) {
-          obs[4] = static_cast<float>(center.x());
-          obs[5] = static_cast<float>(center.y());
-        }
-        const float score = method.decide(obs, 17 + static_cast<uint64_t>(j * n + i)).score;
-        logs[static_cast<size_t>(j * n + i)] = std::log(std::max(score, 1e-12f));
-      }
-      progress = float(j + 1) / n;
+    for (size_t k = 0; k < probes.size(); ++k) {
+      const auto& [cell, obs] = probes[k];
+      const float score = method.decide(obs, 17 + static_cast<uint64_t>(cell)).score;
+      logs[static_cast<size_t>(cell)] = std::log(std::max(score, 1e-12f));
+      progress = float(k + 1) / float(probes.size());
     }
     std::vector<float> finite;
     for (float v : logs)
@@ -157,7 +134,7 @@ void answer_as_operator(Console::State& s) {
   s.takeover_steps = 0;
   s.operator_countdown = -1;
   s.session->operator_answers_query();  // the data set labels these steps the operator's
-  ++s.takeovers;                         // and the console shows and counts them as the operator's
+  s.view.on_operator_answer();           // and the console shows and counts them as the operator's
   s.log->note("operator_answers", "episode " + std::to_string(s.session->episode()));
 }
 
@@ -199,10 +176,7 @@ void execute(Console::State& s, Command c) {
     case Command::kSave: if (idle) save_policy(s); break;
     case Command::kToggleGrip: s.teleop->toggle_grip(); break;
     case Command::kNextCamera:
-      if (s.arm) {
-        const int n = s.arm->model()->ncam;
-        s.camera = s.camera + 1 >= n ? -1 : s.camera + 1;
-      }
+      if (s.physics) s.camera = s.camera + 1 >= static_cast<int>(s.cameras.size()) ? -1 : s.camera + 1;
       break;
     case Command::kToggleField:
       s.show_field = !s.show_field;
@@ -290,8 +264,8 @@ void advance(Console::State& s, double dt) {
     s.session->tick();
     const Control used = s.session->actor();  // who acted in this step (the operator when answering a query)
     drain(s);
-    if (s.nav) s.path.emplace_back(s.nav->position(), used);
-    if (!s.timelines.empty() && s.timelines.back().episode == s.session->episode()) s.timelines.back().steps.push_back(used);
+    const std::optional<PlaneScene> plane = s.env->plane();
+    s.view.on_step(s.session->episode(), used, plane ? std::optional<Eigen::Vector2d>(plane->agent.center) : std::nullopt);
     if (s.takeover_steps >= 0 && ++s.takeover_steps == 20) s.request_shot("takeover");
     if (s.session->update_pending() || s.awaiting || s.session->done()) break;
   }
@@ -305,7 +279,7 @@ OperatorInput operator_input(const Console::State& s) {
   in.lift = s.lift;
   in.has_target = s.dragging;
   in.target = s.drag_target;
-  if (s.arm && s.camera < 0) {  // the free camera's forward direction on the ground; fixed cameras look along x
+  if (s.physics && s.camera < 0) {  // the free camera's forward direction on the ground; fixed cameras look along x
     const double az = s.free_cam.azimuth * M_PI / 180;
     in.forward = Eigen::Vector2d(std::cos(az), std::sin(az));
   }

@@ -11,12 +11,12 @@ namespace dd::ui::console {
 namespace fs = std::filesystem;
 
 // Expected loss (or the method's score) per decision on a log axis, with the threshold and violations.
-void loss_plot(Console::State& s, ImVec2 pos, ImVec2 size) {
+void loss_plot(const Console::State& s, ImVec2 pos, ImVec2 size) {
   const MethodInfo& m = method_info(s.o.method);
   std::string title = m.score.empty() ? "Query score" : m.score;
   title[0] = static_cast<char>(std::toupper(static_cast<unsigned char>(title[0])));
   begin_panel((title + " per decision###plot").c_str(), pos, size);
-  const Decision* last = s.decisions.empty() ? nullptr : &s.decisions.back();
+  const DecisionPoint* last = s.view.decisions().empty() ? nullptr : &s.view.decisions().back();
   if (last) {
     ImGui::TextColored(ImVec4(0.55f, 0.75f, 1.f, 1.f), "score %.4g", last->score);
     ImGui::SameLine(0, 18);
@@ -35,16 +35,16 @@ void loss_plot(Console::State& s, ImVec2 pos, ImVec2 size) {
   const ImVec2 a(p0.x + left, p0.y + 4), b(p0.x + avail.x - 6, p0.y + avail.y - bottom);
   dl->AddRectFilled(a, b, IM_COL32(14, 16, 21, 255), 4.f);
   ImGui::Dummy(avail);
-  if (s.decisions.empty() || b.x - a.x < 20) {
+  if (s.view.decisions().empty() || b.x - a.x < 20) {
     ImGui::End();
     return;
   }
   const int window = 120;
-  const int n = static_cast<int>(s.decisions.size());
+  const int n = static_cast<int>(s.view.decisions().size());
   const int first = std::max(0, n - window);
   float lo = INFINITY, hi = -INFINITY;
   for (int i = first; i < n; ++i) {
-    const Decision& d = s.decisions[static_cast<size_t>(i)];
+    const DecisionPoint& d = s.view.decisions()[static_cast<size_t>(i)];
     for (float v : {d.score, d.threshold})
       if (v > 0 && std::isfinite(v)) {
         lo = std::min(lo, std::log10(v));
@@ -69,18 +69,18 @@ void loss_plot(Console::State& s, ImVec2 pos, ImVec2 size) {
   }
   // episode boundaries
   for (int i = first + 1; i < n; ++i)
-    if (s.decisions[static_cast<size_t>(i)].episode != s.decisions[static_cast<size_t>(i - 1)].episode)
+    if (s.view.decisions()[static_cast<size_t>(i)].episode != s.view.decisions()[static_cast<size_t>(i - 1)].episode)
       dl->AddLine(ImVec2(X(i) - 0.5f * (X(1) - X(0)), a.y), ImVec2(X(i) - 0.5f * (X(1) - X(0)), b.y), IM_COL32(255, 255, 255, 30));
   dl->PushClipRect(a, b, true);
   for (int i = first + 1; i < n; ++i) {
-    const Decision& d0 = s.decisions[static_cast<size_t>(i - 1)];
-    const Decision& d1 = s.decisions[static_cast<size_t>(i)];
+    const DecisionPoint& d0 = s.view.decisions()[static_cast<size_t>(i - 1)];
+    const DecisionPoint& d1 = s.view.decisions()[static_cast<size_t>(i)];
     dl->AddLine(ImVec2(X(i - 1), Y(d0.threshold)), ImVec2(X(i), Y(d0.threshold)), kThresholdColor, 2.f);
     dl->AddLine(ImVec2(X(i), Y(d0.threshold)), ImVec2(X(i), Y(d1.threshold)), kThresholdColor, 2.f);
     if (d0.episode == d1.episode) dl->AddLine(ImVec2(X(i - 1), Y(d0.score)), ImVec2(X(i), Y(d1.score)), kScoreColor, 2.f);
   }
   for (int i = first; i < n; ++i) {
-    const Decision& d = s.decisions[static_cast<size_t>(i)];
+    const DecisionPoint& d = s.view.decisions()[static_cast<size_t>(i)];
     if (d.violation) {
       dl->AddCircleFilled(ImVec2(X(i), Y(d.score)), 4.5f, kViolationRed);
       if (d.run >= s.o.config.dagger.patience) {
@@ -93,14 +93,14 @@ void loss_plot(Console::State& s, ImVec2 pos, ImVec2 size) {
   }
   dl->PopClipRect();
   char t[48];
-  std::snprintf(t, sizeof t, "decision %d", s.decisions.back().index + 1);
+  std::snprintf(t, sizeof t, "decision %d", s.view.decisions().back().index + 1);
   dl->AddText(ImVec2(b.x - ImGui::CalcTextSize(t).x, b.y + 2), kAxisText, t);
   dl->AddText(ImVec2(a.x, b.y + 2), kAxisText, "last 120 decisions; red: above threshold");
   ImGui::End();
 }
 
 // One row per episode, one cell per step, coloured by who was in control.
-void timeline_view(Console::State& s, ImVec2 pos, ImVec2 size) {
+void timeline_view(const Console::State& s, ImVec2 pos, ImVec2 size) {
   begin_panel("Control per episode", pos, size);
   ImDrawList* dl = ImGui::GetWindowDrawList();
   const ImVec2 avail = ImGui::GetContentRegionAvail();
@@ -108,12 +108,12 @@ void timeline_view(Console::State& s, ImVec2 pos, ImVec2 size) {
   ImGui::Dummy(avail);
   const float row_h = 15, gap = 4, label_w = 44;
   const int rows = std::max(1, static_cast<int>((avail.y - 18) / (row_h + gap)));
-  const int n = static_cast<int>(s.timelines.size());
+  const int n = static_cast<int>(s.view.timelines().size());
   const int first = std::max(0, n - rows);
   const int T = s.o.config.dagger.expert_time_limit > 0 ? s.o.config.dagger.expert_time_limit : 2 * s.o.config.dagger.time_limit;
   const float w = avail.x - label_w - 36;
   for (int r = first; r < n; ++r) {
-    const Timeline& tl = s.timelines[static_cast<size_t>(r)];
+    const Timeline& tl = s.view.timelines()[static_cast<size_t>(r)];
     const float y = p0.y + (r - first) * (row_h + gap);
     char t[16];
     std::snprintf(t, sizeof t, "#%d", tl.episode);
@@ -147,7 +147,7 @@ void stat_row(const char* label, const std::string& value) {
   ImGui::TextUnformatted(value.c_str());
 }
 
-void session_view(Console::State& s, ImVec2 pos, ImVec2 size) {
+void session_view(const Console::State& s, ImVec2 pos, ImVec2 size) {
   begin_panel("Session", pos, size);
   const DaggerSession& se = *s.session;
   const DaggerConfig& d = s.o.config.dagger;
@@ -155,18 +155,18 @@ void session_view(Console::State& s, ImVec2 pos, ImVec2 size) {
   stat_row("episode", std::to_string(se.episode()) + (se.in_episode() ? ", step " + std::to_string(s.env->steps()) : ""));
   stat_row("expert demos", std::to_string(se.expert_demos()) + " / " + std::to_string(d.final_demos) + " (N_f)");
   stat_row("interventions", std::to_string(se.interventions()) + " (update every " + std::to_string(d.demos_per_update) + ")");
-  stat_row("queries", std::to_string(s.queries) + ", time-outs " + std::to_string(s.timeouts));
-  stat_row("takeovers", std::to_string(s.takeovers) + " by the operator");
-  stat_row("robot alone", std::to_string(s.robot_successes) + " / " + std::to_string(s.robot_episodes) + " succeeded");
+  stat_row("queries", std::to_string(s.view.counts().queries) + ", time-outs " + std::to_string(s.view.counts().timeouts));
+  stat_row("takeovers", std::to_string(s.view.counts().takeovers) + " by the operator");
+  stat_row("robot alone", std::to_string(s.view.counts().robot_successes) + " / " + std::to_string(s.view.counts().robot_episodes) + " succeeded");
   ImGui::NextColumn();
   stat_row("updates", std::to_string(se.updates()));
-  stat_row("training pairs", se.updates() ? std::to_string(s.last_report.pairs) : "-");
+  stat_row("training pairs", se.updates() ? std::to_string(s.view.last_report().pairs) : "-");
   char b[64];
-  std::snprintf(b, sizeof b, "%.4g", s.last_report.threshold);
+  std::snprintf(b, sizeof b, "%.4g", s.view.last_report().threshold);
   stat_row("threshold", se.updates() ? b : "-");
-  stat_row("train / thresh.", se.updates() ? fmt_seconds(s.last_report.train_s) + " / " + fmt_seconds(s.last_report.threshold_s) : "-");
-  std::snprintf(b, sizeof b, "%.0f ms", s.last_decision_ms);
-  stat_row("decision time", s.decisions.empty() ? "-" : b);
+  stat_row("train / thresh.", se.updates() ? fmt_seconds(s.view.last_report().train_s) + " / " + fmt_seconds(s.view.last_report().threshold_s) : "-");
+  std::snprintf(b, sizeof b, "%.0f ms", s.view.last_decision_ms());
+  stat_row("decision time", s.view.decisions().empty() ? "-" : b);
   if (s.o.fixed_step) std::snprintf(b, sizeof b, "fixed step %.0f ms", 1e3 / s.env->control_hz());
   else std::snprintf(b, sizeof b, "%.1f ms, speed x%g", s.frame_ms, s.o.speed);
   stat_row("frame", b);
@@ -187,7 +187,7 @@ void session_view(Console::State& s, ImVec2 pos, ImVec2 size) {
   ImGui::End();
 }
 
-void top_bar(Console::State& s, ImVec2 size) {
+void top_bar(const Console::State& s, ImVec2 size) {
   ImGui::SetNextWindowPos(ImVec2(0, 0));
   ImGui::SetNextWindowSize(ImVec2(size.x, 40));
   ImGui::PushStyleColor(ImGuiCol_WindowBg, ImVec4(0.07f, 0.075f, 0.09f, 1.f));
@@ -220,11 +220,12 @@ void top_bar(Console::State& s, ImVec2 size) {
   ImGui::PopStyleColor();
 }
 
-void help_overlay(Console::State& s, ImVec2 size) {
+void help_overlay(const Console::State& s, ImVec2 size, std::vector<Command>& given) {
   if (!s.show_help) return;
   ImGui::SetNextWindowPos(ImVec2(size.x * 0.5f, size.y * 0.5f), 0, ImVec2(0.5f, 0.5f));
   ImGui::SetNextWindowBgAlpha(0.96f);
-  ImGui::Begin("Keys", &s.show_help, ImGuiWindowFlags_AlwaysAutoResize | ImGuiWindowFlags_NoSavedSettings | ImGuiWindowFlags_NoCollapse);
+  bool open = true;
+  ImGui::Begin("Keys", &open, ImGuiWindowFlags_AlwaysAutoResize | ImGuiWindowFlags_NoSavedSettings | ImGuiWindowFlags_NoCollapse);
   // the key column as wide as its widest entry (in the bold font it is drawn in), plus a gap
   const auto keys = console_keys();
   if (g_bold) ImGui::PushFont(g_bold);
@@ -243,22 +244,23 @@ void help_overlay(Console::State& s, ImVec2 size) {
   ImGui::TextDisabled("Queries %s. Every episode is saved to the data set as it ends.",
                       s.o.pause_on_query ? "pause the session until you answer" : "are answered by the scripted expert");
   ImGui::End();
+  if (!open) given.push_back(Command::kHelp);  // its close button: the help command hides it
 }
 
-void close_dialog(Console::State& s) {
+void close_dialog(const Console::State& s, std::vector<Command>& given) {
   if (!s.close_dialog) return;
   ImGui::OpenPopup("Quit?");
   if (ImGui::BeginPopupModal("Quit?", nullptr, ImGuiWindowFlags_AlwaysAutoResize)) {
     ImGui::Text("Episode %d is in progress with expert steps in it.", s.session->episode());
     ImGui::TextDisabled("Saving keeps them in the data set as a shortened episode.");
+    // the buttons give what their keys give; the controller acts on it
     if (ImGui::Button("Save it and quit (Enter)")) {
-      s.quitting = true;
-      s.close_dialog = false;
+      given.push_back(Command::kConfirm);
       ImGui::CloseCurrentPopup();
     }
     ImGui::SameLine();
     if (ImGui::Button("Keep working (Esc)")) {
-      s.close_dialog = false;
+      given.push_back(Command::kBack);
       ImGui::CloseCurrentPopup();
     }
     ImGui::EndPopup();

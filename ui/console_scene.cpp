@@ -19,81 +19,82 @@ void begin_panel(const char* title, ImVec2 pos, ImVec2 size, ImGuiWindowFlags ex
 
 namespace {
 
-void draw_nav2d(Console::State& s, ImVec2 size) {
+// A 2-D task from above: arena, start square, goal, the newest demonstrations, obstacles, the path so
+// far coloured by who acted, the robot's planned chunk and the operator's target.
+void draw_plane(Console::State& s, const PlaneScene& p, ImVec2 size) {
   Scene2d& sc = *s.scene;
   const int px = std::max(64, static_cast<int>(std::min(size.x, size.y)));
   sc.resize(px, px);
-  const Nav2dConfig& c = s.nav->config();
-  const double half = c.arena_half;
+  const double half = p.half;
   sc.begin({0, 0}, half + 0.06, {0.075f, 0.080f, 0.095f, 1.f});
   sc.rect({-half - 0.04, -half - 0.04}, {half + 0.04, half + 0.04}, {0.30f, 0.32f, 0.37f, 1.f});  // walls
   sc.rect({-half, -half}, {half, half}, {0.145f, 0.155f, 0.180f, 1.f});                            // floor
   if (s.show_field && s.field_valid)
     sc.heat(s.field, s.field_n, s.field_n, {-half, -half}, {half, half}, 0.85f);
-  // start square and goal
-  const Eigen::Vector2d sh(c.start_half, c.start_half);
-  sc.stroke({c.start_center - sh, c.start_center + Eigen::Vector2d(c.start_half, -c.start_half), c.start_center + sh,
-             c.start_center + Eigen::Vector2d(-c.start_half, c.start_half), c.start_center - sh},
-            1.5, {1, 1, 1, 0.35f});
-  sc.disc(c.goal, c.goal_radius, {0.30f, 0.78f, 0.45f, 0.35f});
-  sc.ring(c.goal, c.goal_radius, 2.0, {0.35f, 0.85f, 0.50f, 0.9f});
+  const Eigen::Vector2d c = p.start_center, sh(p.start_half, p.start_half), sv(p.start_half, -p.start_half);
+  sc.stroke({c - sh, c + sv, c + sh, c - sv, c - sh}, 1.5, {1, 1, 1, 0.35f});
+  sc.disc(p.goal.center, p.goal.radius, {0.30f, 0.78f, 0.45f, 0.35f});
+  sc.ring(p.goal.center, p.goal.radius, 2.0, {0.35f, 0.85f, 0.50f, 0.9f});
   // demonstrations (the newest 40)
   const auto& demos = s.session->expert_data();
   const size_t from = demos.size() > 40 ? demos.size() - 40 : 0;
   for (size_t d = from; d < demos.size(); ++d) {
     std::vector<Eigen::Vector2d> pts;
-    for (Eigen::Index t = 0; t < demos[d].obs.rows(); ++t) pts.emplace_back(demos[d].obs(t, 0), demos[d].obs(t, 1));
+    for (Eigen::Index t = 0; t < demos[d].obs.rows(); ++t)
+      if (const auto q = s.env->observed_point(demos[d].obs.row(t).transpose())) pts.emplace_back(q->head<2>());
     sc.stroke(pts, 1.6, {0.80f, 0.84f, 0.95f, 0.22f});
   }
-  sc.disc(s.nav->obstacle_center(), c.obstacle_radius, {0.40f, 0.42f, 0.49f, 1.f}, 0.06f);
+  for (const PlaneScene::Disc& o : p.obstacles) sc.disc(o.center, o.radius, {0.40f, 0.42f, 0.49f, 1.f}, 0.06f);
   // the executed path, coloured by who was in control
-  for (size_t i = 1; i < s.path.size(); ++i)
-    sc.stroke({s.path[i - 1].first, s.path[i].first}, 3.0, to_rgba(control_color(s.path[i].second)));
+  const auto& path = s.view.path();
+  for (size_t i = 1; i < path.size(); ++i)
+    sc.stroke({path[i - 1].first, path[i].first}, 3.0, to_rgba(control_color(path[i].second)));
   // the planned chunk: targets ahead of the robot, executed ones faded
-  const Mat& chunk = s.session->chunk();
-  if (chunk.rows() > 0 && s.session->control() == Control::kRobot) {
+  if (s.session->control() == Control::kRobot) {
     std::vector<Eigen::Vector2d> pts;
-    for (Eigen::Index r = 0; r < chunk.rows(); ++r) pts.emplace_back(chunk(r, 0), chunk(r, 1));
-    sc.stroke(pts, 1.5, {0.55f, 0.85f, 1.f, 0.6f});
-    for (Eigen::Index r = 0; r < chunk.rows(); ++r)
-      sc.dot(pts[static_cast<size_t>(r)], 3.0, {0.55f, 0.85f, 1.f, r < s.session->chunk_pos() ? 0.3f : 0.95f});
+    for (const Eigen::Vector3d& q : s.env->action_points(s.session->chunk())) pts.emplace_back(q.head<2>());
+    if (!pts.empty()) {
+      sc.stroke(pts, 1.5, {0.55f, 0.85f, 1.f, 0.6f});
+      for (size_t r = 0; r < pts.size(); ++r)
+        sc.dot(pts[r], 3.0, {0.55f, 0.85f, 1.f, static_cast<int>(r) < s.session->chunk_pos() ? 0.3f : 0.95f});
+    }
   }
+  const Eigen::Vector2d agent = p.agent.center;
   if (s.operator_drives() && !s.o.scripted_operator) {
-    const Eigen::Vector2d p = s.nav->position();
-    const Eigen::Vector2d t = s.dragging ? s.drag_target : Eigen::Vector2d(p + 0.2 * s.jog);
-    sc.stroke({p, t}, 1.5, to_rgba(control_color(Control::kOperator), 0.8f));
+    const Eigen::Vector2d t = s.dragging ? s.drag_target : Eigen::Vector2d(agent + 0.2 * s.jog);
+    sc.stroke({agent, t}, 1.5, to_rgba(control_color(Control::kOperator), 0.8f));
     sc.ring(t, 0.035, 2.0, to_rgba(control_color(Control::kOperator)));
   }
-  const Control now = s.session->in_episode() ? s.session->actor() : s.path.empty() ? Control::kRobot : s.path.back().second;
-  sc.disc(s.nav->position(), c.agent_radius + 0.012, {1, 1, 1, 0.9f});
-  sc.disc(s.nav->position(), c.agent_radius, to_rgba(control_color(now)));
+  const Control now = s.session->in_episode() ? s.session->actor() : s.view.last_actor();
+  sc.disc(agent, p.agent.radius + 0.012, {1, 1, 1, 0.9f});
+  sc.disc(agent, p.agent.radius, to_rgba(control_color(now)));
   sc.render();
 }
 
-// The arm scene through MuJoCo's renderer: the free camera (orbit, pan, zoom with the mouse) or one
-// of the task's cameras; the robot's planned TCP positions and the operator's target as markers.
+// A physics scene through MuJoCo's renderer: the free camera (orbit, pan, zoom with the mouse) or one
+// of the task's cameras; the robot's planned points (TCP targets) and the operator's target as markers.
 void draw_mujoco(Console::State& s, ImVec2 origin, float side) {
-  const mjData* d = s.arm->data();
+  const mjData_* d = s.physics->data;
   std::vector<Marker> markers;
-  const Mat& chunk = s.session->chunk();
-  if (chunk.rows() > 0 && chunk.cols() >= 3 && s.arm->control() == mj::ArmControl::kEndEffectorPose &&
-      s.session->control() == Control::kRobot)
-    for (Eigen::Index r = 0; r < chunk.rows(); ++r) {
-      const float a = r < s.session->chunk_pos() ? 0.25f : 0.9f;
-      markers.push_back({{chunk(r, 0), chunk(r, 1), chunk(r, 2)}, 0.006, {0.45f, 0.8f, 1.f, a}});
+  if (s.session->control() == Control::kRobot) {
+    const std::vector<Eigen::Vector3d> points = s.env->action_points(s.session->chunk());
+    for (size_t r = 0; r < points.size(); ++r) {
+      const float a = static_cast<int>(r) < s.session->chunk_pos() ? 0.25f : 0.9f;
+      markers.push_back({{points[r].x(), points[r].y(), points[r].z()}, 0.006, {0.45f, 0.8f, 1.f, a}});
     }
+  }
   if (s.operator_drives() && !s.o.scripted_operator)
     if (const auto t = s.teleop->target()) markers.push_back({{t->x(), t->y(), t->z()}, 0.012, {0.7f, 0.42f, 0.91f, 0.9f}});
   const int px = std::max(64, static_cast<int>(side));
   // MuJoCo's renderer is the costly part of a frame on a software GL: render only when the picture
   // changes (the simulation stepped, the camera or a marker moved), not while a policy update runs
-  std::vector<double> key = {d->time, s.free_cam.lookat[0], s.free_cam.lookat[1], s.free_cam.lookat[2], s.free_cam.distance,
+  std::vector<double> key = {double(s.session->episode()), double(s.env->steps()), s.free_cam.lookat[0], s.free_cam.lookat[1], s.free_cam.lookat[2], s.free_cam.distance,
                              s.free_cam.azimuth, s.free_cam.elevation, double(s.camera), double(px), double(markers.size())};
   for (const Marker& m : markers) key.insert(key.end(), {m.pos[0], m.pos[1], m.pos[2], double(m.rgba[3])});
   if (key != s.mj_key) {
     s.mj_key = key;
     const Image img = s.camera < 0 ? s.mjview->free(d, s.free_cam, px, px, markers)
-                                   : s.mjview->camera_view(d, mj_id2name(s.arm->model(), mjOBJ_CAMERA, s.camera), px, px, markers);
+                                   : s.mjview->camera_view(d, s.cameras[static_cast<size_t>(s.camera)], px, px, markers);
     glBindTexture(GL_TEXTURE_2D, s.mj_tex);
     glPixelStorei(GL_UNPACK_ALIGNMENT, 1);
     glTexImage2D(GL_TEXTURE_2D, 0, GL_RGBA8, img.width, img.height, 0, GL_RGBA, GL_UNSIGNED_BYTE, img.rgba.data());
@@ -128,7 +129,7 @@ void draw_mujoco(Console::State& s, ImVec2 origin, float side) {
   }
   if (!ImGui::IsMouseDown(ImGuiMouseButton_Left)) s.dragging = false;
   // which camera, top-left
-  const char* cam = s.camera < 0 ? "free camera (C: next)" : mj_id2name(s.arm->model(), mjOBJ_CAMERA, s.camera);
+  const char* cam = s.camera < 0 ? "free camera (C: next)" : s.cameras[static_cast<size_t>(s.camera)].c_str();
   ImDrawList* dl = ImGui::GetWindowDrawList();
   const ImVec2 ts = ImGui::CalcTextSize(cam);
   dl->AddRectFilled(ImVec2(origin.x + 8, origin.y + side - 30), ImVec2(origin.x + 20 + ts.x, origin.y + side - 8),
@@ -145,8 +146,8 @@ void scene_view(Console::State& s, ImVec2 pos, ImVec2 size) {
   const float side = std::min(avail.x, avail.y - 58);  // room for the legend below
   const ImVec2 origin(ImGui::GetCursorScreenPos().x + (avail.x - side) * 0.5f, ImGui::GetCursorScreenPos().y);
   ImDrawList* dl = ImGui::GetWindowDrawList();
-  if (s.nav) {
-    draw_nav2d(s, ImVec2(side, side));
+  if (const std::optional<PlaneScene> plane = s.env->plane()) {
+    draw_plane(s, *plane, ImVec2(side, side));
     ImGui::SetCursorScreenPos(origin);
     ImGui::Image(reinterpret_cast<ImTextureID>(static_cast<intptr_t>(s.scene->texture())), ImVec2(side, side), ImVec2(0, 1),
                  ImVec2(1, 0));
@@ -162,7 +163,7 @@ void scene_view(Console::State& s, ImVec2 pos, ImVec2 size) {
     } else if (!ImGui::IsMouseDown(ImGuiMouseButton_Left)) {
       s.dragging = false;
     }
-  } else if (s.arm) {
+  } else if (s.physics) {
     draw_mujoco(s, origin, side);
   } else {
     dl->AddText(origin, kAxisText, "no renderer for this task");
@@ -195,7 +196,7 @@ void scene_view(Console::State& s, ImVec2 pos, ImVec2 size) {
     dl->AddText(ImVec2(a.x + (w - ts.x) * 0.5f, a.y + 12), IM_COL32(255, 255, 255, 255), title);
     if (g_big) ImGui::PopFont();
     char line[160];
-    const Decision* d = s.decisions.empty() ? nullptr : &s.decisions.back();
+    const DecisionPoint* d = s.view.decisions().empty() ? nullptr : &s.view.decisions().back();
     const float score = d ? d->score : 0.f, threshold = d ? d->threshold : 0.f;
     const int K = s.o.config.dagger.patience;
     const MethodInfo& m = method_info(s.o.method);

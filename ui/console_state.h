@@ -20,11 +20,10 @@
 #include "core/event_log.h"
 #include "core/method.h"
 #include "core/session.h"
-#include "envs/mujoco/arm_env.h"
-#include "envs/nav2d.h"
 #include "ui/console.h"
 #include "ui/mujoco_view.h"
 #include "ui/scene2d.h"
+#include "ui/view_model.h"
 #include "ui/worker.h"
 
 namespace dd::ui {
@@ -83,21 +82,6 @@ class ConsoleExpert : public Expert {
   std::function<Vec(const Env&)> action_;
 };
 
-struct Decision {
-  int index, episode;
-  float score, threshold;
-  bool violation;
-  int run;
-  float risk_q;  // thrifty: the critic's min Q (-1: not computed)
-  QueryReason reason;
-};
-
-struct Timeline {
-  int episode = 0;
-  std::vector<Control> steps;
-  bool ended = false, success = false;
-};
-
 
 inline std::string fmt_seconds(double s) {
   char b[32];
@@ -110,8 +94,7 @@ inline std::string fmt_seconds(double s) {
 
 struct Console::State {
   ConsoleOptions o;
-  std::unique_ptr<Env> env;
-  Nav2dEnv* nav = nullptr;
+  std::unique_ptr<Env> env;  // seen through its scene description (Env::plane, Env::physics), never by its type
   std::unique_ptr<Expert> scripted;
   std::unique_ptr<console::ConsoleExpert> expert;
   std::unique_ptr<Method> method;
@@ -119,8 +102,9 @@ struct Console::State {
   std::unique_ptr<DaggerSession> session;
   std::unique_ptr<EventLog> log;
   std::unique_ptr<Scene2d> scene;
-  // the arm tasks: MuJoCo's view, shown through a texture
-  mj::ArmEnv* arm = nullptr;
+  // physics tasks: MuJoCo's view, shown through a texture
+  std::optional<PhysicsScene> physics;
+  std::vector<std::string> cameras;  // the model's cameras (C cycles the free camera and these)
   std::unique_ptr<MujocoView> mjview;
   unsigned mj_tex = 0;
   std::vector<double> mj_key;  // what the texture shows (re-rendered when it changes)
@@ -145,15 +129,9 @@ struct Console::State {
   bool updating() const { return worker.busy() && worker.job() != WorkerJob::kDecision; }
   bool deciding() const { return worker.job() == WorkerJob::kDecision; }
 
-  // what the views show
-  std::deque<console::Decision> decisions;
-  int decision_count = 0;
-  std::deque<console::Timeline> timelines;
-  std::vector<std::pair<Eigen::Vector2d, Control>> path;
-  std::vector<std::vector<Eigen::Vector2d>> demo_paths;
-  int queries = 0, timeouts = 0, takeovers = 0, robot_episodes = 0, robot_successes = 0, saves = 0;
-  UpdateReport last_report;
-  double last_decision_ms = 0;
+  // what the panels show, built from the session's events and steps (the controller feeds it)
+  ViewModel view;
+  int saves = 0;
 
   // operator state
   enum class Answer { kNobody, kOperator, kScripted };
@@ -209,13 +187,13 @@ void scene_view(Console::State& s, ImVec2 pos, ImVec2 size);
 /// A fixed panel of the console's layout (closed with ImGui::End()).
 void begin_panel(const char* title, ImVec2 pos, ImVec2 size, ImGuiWindowFlags extra = 0);
 
-// console_panels.cpp
-void loss_plot(Console::State& s, ImVec2 pos, ImVec2 size);
-void timeline_view(Console::State& s, ImVec2 pos, ImVec2 size);
-void session_view(Console::State& s, ImVec2 pos, ImVec2 size);
-void top_bar(Console::State& s, ImVec2 size);
-void help_overlay(Console::State& s, ImVec2 size);
-void close_dialog(Console::State& s);
+// console_panels.cpp: read the state and draw; the key list's and the dialog's buttons give commands
+void loss_plot(const Console::State& s, ImVec2 pos, ImVec2 size);
+void timeline_view(const Console::State& s, ImVec2 pos, ImVec2 size);
+void session_view(const Console::State& s, ImVec2 pos, ImVec2 size);
+void top_bar(const Console::State& s, ImVec2 size);
+void help_overlay(const Console::State& s, ImVec2 size, std::vector<Command>& given);
+void close_dialog(const Console::State& s, std::vector<Command>& given);
 
 }  // namespace console
 }  // namespace dd::ui

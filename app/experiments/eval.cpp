@@ -1,5 +1,7 @@
-// The evaluation (eval): its cells (RQ1, RQ2 and RQ3 of one method and seed), run in-process or in child processes, resumable, and its report.
+// The evaluation (eval): its cells (RQ1, RQ2 and RQ3 of one method and seed), run in-process or in child
+// processes and resumable; eval_report.cpp writes the report from them.
 #include "app/experiments.h"
+#include "app/experiments/eval_report.h"
 #include "app/experiments/shared.h"
 
 #include <fmt/format.h>
@@ -38,7 +40,6 @@
 #include "core/session.h"
 #include "core/trainer.h"
 #include "envs/registry.h"
-#include "ui/plot.h"
 
 
 namespace dd::app {
@@ -60,22 +61,6 @@ void EvalOptions::apply_quick(ExperimentConfig& c) {
 
 namespace {
 
-// Mean and standard deviation over the finite values (NaN when there are none).
-std::pair<double, double> finite_mean_std(const std::vector<double>& v) {
-  std::vector<double> f;
-  for (double x : v)
-    if (std::isfinite(x)) f.push_back(x);
-  return mean_std(f);
-}
-
-// "0.83", "0.83 +- 0.04" over seeds, or "n/a" where the value is undefined in every seed.
-std::string pm(const std::vector<double>& v) {
-  const auto [m, s] = finite_mean_std(v);
-  if (!std::isfinite(m)) return "n/a";
-  return v.size() > 1 ? fmt::format("{:.2f} +- {:.2f}", m, s) : fmt::format("{:.2f}", m);
-}
-
-std::string csv_num(double v) { return std::isfinite(v) ? fmt::format("{:.3f}", v) : "nan"; }
 
 }  // namespace
 
@@ -323,17 +308,10 @@ void run_eval(const ExperimentConfig& config, const EvalOptions& o) {
     // a cell's process (eval --jobs) runs in the folder its parent prepared, and only reads it
     throw Error(o.out + "/config.json: --cell runs a cell of the evaluation whose config this file holds, and it holds another");
   }
-  struct Row {
-    std::vector<double> tpr, tnr, f1, acc, rq1_success, success;
-    std::vector<double> train, threshold, inference, risk_data;        // mean over a run's iterations
-    std::vector<double> last_train, last_threshold, last_inference;    // the run's final iteration
-    int tp = 0, fp = 0, tn = 0, fn = 0;                                // summed over seeds
-  };
-  std::map<std::string, Row> rows;
+  std::map<std::string, EvalRow> rows;
   auto env = make_env(config.task);
   const DaggerConfig& d = config.dagger;
   const RolloutSpec spec = RolloutSpec::of(d);
-  const bool bc_scaled = !config.train.from_scratch;
   const auto t_start = std::chrono::steady_clock::now();
   int skipped = 0;  // cells read from out/cells
 
@@ -517,7 +495,7 @@ void run_eval(const ExperimentConfig& config, const EvalOptions& o) {
 
   for (int s = 0; s < o.seeds; ++s) {
     for (const std::string& name : o.methods) {
-      Row& row = rows[name];
+      EvalRow& row = rows[name];
       if (method_info(name).gated) {
         const std::string file = cell_file(name, s, true);
         auto j = finished(file, ran_here);
@@ -551,127 +529,8 @@ void run_eval(const ExperimentConfig& config, const EvalOptions& o) {
     }
   }
 
-  // CSV files: the columns the issue names first, spreads and counts after them. "nan": undefined
-  // (TPR with no failed rollout, TNR with no successful one).
-  std::string rq1 = "method,tpr,tnr,f1,acc,tpr_std,tnr_std,f1_std,acc_std,tp,fp,tn,fn,success_rate,seeds,episodes\n";
-  std::string rq2 = "method,success_rate,n,success_rate_std,seeds\n";
-  std::string rq3 =
-      "method,train_s,threshold_s,inference_s,total_s,last_train_s,last_threshold_s,last_inference_s,last_total_s,risk_data_s,"
-      "train_s_std,threshold_s_std,inference_s_std,seeds\n";
-  for (const std::string& name : o.methods) {
-    const Row& r = rows[name];
-    if (!r.tpr.empty()) {
-      rq1 += fmt::format("{},{},{},{},{},{},{},{},{},{},{},{},{},{:.3f},{},{}\n", name, csv_num(finite_mean_std(r.tpr).first),
-                         csv_num(finite_mean_std(r.tnr).first), csv_num(finite_mean_std(r.f1).first), csv_num(finite_mean_std(r.acc).first),
-                         csv_num(finite_mean_std(r.tpr).second), csv_num(finite_mean_std(r.tnr).second),
-                         csv_num(finite_mean_std(r.f1).second), csv_num(finite_mean_std(r.acc).second), r.tp, r.fp, r.tn, r.fn,
-                         mean(r.rq1_success), o.seeds, o.episodes);
-    }
-    rq2 += fmt::format("{},{:.3f},{},{:.3f},{}\n", name, mean_std(r.success).first, o.episodes * o.seeds, mean_std(r.success).second,
-                       o.seeds);
-    const double risk = r.risk_data.empty() ? 0.0 : mean(r.risk_data);
-    rq3 += fmt::format("{},{:.3f},{:.3f},{:.3f},{:.3f},{:.3f},{:.3f},{:.3f},{:.3f},{:.3f},{:.3f},{:.3f},{:.3f},{}\n", name, mean(r.train),
-                       mean(r.threshold), mean(r.inference), mean(r.train) + mean(r.threshold) + mean(r.inference), mean(r.last_train),
-                       mean(r.last_threshold), mean(r.last_inference), mean(r.last_train) + mean(r.last_threshold) + mean(r.last_inference),
-                       risk, mean_std(r.train).second, mean_std(r.threshold).second, mean_std(r.inference).second, o.seeds);
-  }
-  write_text(o.out + "/rq1.csv", rq1);
-  write_text(o.out + "/rq2.csv", rq2);
-  write_text(o.out + "/rq3.csv", rq3);
-
-  // Plots.
-  auto bars = [&](const std::string& title, const std::string& label, auto value, bool gated_only) {
-    ui::BarPanel p;
-    p.title = title;
-    p.y_label = label;
-    p.width = 480;
-    for (const std::string& name : o.methods) {
-      if (gated_only && !method_info(name).gated) continue;
-      const auto [m, sd] = value(rows[name]);
-      p.categories.push_back(method_title(name));
-      p.values.push_back(m);
-      p.errors.push_back(sd);
-      p.colors.push_back(method_color(name));
-    }
-    return ui::draw_bars(p);
-  };
-  const std::string caption =
-      o.seeds > 1 ? fmt::format("task {} (preset {}): mean +- std over {} seeds, {} rollouts each", config.task, config.preset, o.seeds, o.episodes)
-                  : fmt::format("task {} (preset {}): one seed, {} rollouts each", config.task, config.preset, o.episodes);
-  ui::write_png(o.out + "/rq1_failure_prediction.png",
-                ui::hstack({bars("RQ1: F1 of queries vs failures", "F1", [](const Row& r) { return finite_mean_std(r.f1); }, true),
-                            bars("RQ1: accuracy", "accuracy", [](const Row& r) { return finite_mean_std(r.acc); }, true)},
-                           caption));
-  ui::write_png(o.out + "/rq2_success.png",
-                ui::hstack({bars(fmt::format("RQ2: success after N_f = {}", d.final_demos), "success rate",
-                                 [](const Row& r) { return mean_std(r.success); }, false)},
-                           caption));
-  ui::write_png(o.out + "/rq3_wallclock.png",
-                ui::hstack({bars("RQ3: training, final iteration", "seconds", [](const Row& r) { return mean_std(r.last_train); }, false),
-                            bars("RQ3: threshold setting, final", "seconds", [](const Row& r) { return mean_std(r.last_threshold); }, false),
-                            bars("RQ3: inference, final iteration", "seconds", [](const Row& r) { return mean_std(r.last_inference); }, false)},
-                           caption));
-
-  // Report.
   const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count();
-  const std::string budget =
-      config.train.from_scratch
-          ? fmt::format("every update retrains from scratch for {} epochs (at most {} steps)", config.train.epochs, config.train.max_steps)
-          : fmt::format("{} training steps per update, continuing from the previous weights", config.train.steps);
-  std::string md = fmt::format("# Evaluation on {} (preset {}, expert {})\n\n{} seed(s), {} rollouts per measurement{}. "
-                               "Schedule: N_i {}, N_f {}, N_d {}, alpha {}, K {} (the gate scores every {}), T_L {}, T_p {}, T_a {}; {}. "
-                               "Thresholds over {} training pairs; the loss is scored with the {} weights, in {} space.\n\n",
-                               config.task, config.preset, config.expert, o.seeds, o.episodes,
-                               o.quick ? " (quick run: tiny budgets and 3-member ensembles, a smoke test; read with care)" : "",
-                               d.initial_demos, d.final_demos, d.demos_per_update, config.method.alpha, d.patience, to_string(d.gate_every),
-                               d.time_limit, config.policy.horizon, config.policy.action_steps, budget,
-                               config.method.calibration_pairs > 0 ? fmt::format("at most {}", config.method.calibration_pairs) : "all",
-                               config.method.score_raw_weights ? "raw training" : "EMA",
-                               config.method.score_space == "target" ? "the training target's" : config.method.score_space);
-  md += fmt::format("## Table I: failure prediction (RQ1)\n\nPolicies trained on N_D = {} demonstrations, rolled out without intervention. "
-                    "They are trained like BC ({}). "
-                    "Positive = the rule would have asked; actual positive = the episode failed. TP, FP, TN, FN are summed over seeds; "
-                    "n/a: undefined (no failed rollout for TPR, no successful one for TNR). Ensemble-DAgger and Thrifty-DAgger act with "
-                    "the member trained on all the demonstrations; the other members are bootstrapped. The three methods' policies are "
-                    "one ensemble per seed, trained once: Diff-DAgger's is its member 0, the very policy its own update would train "
-                    "(same initial weights, data and minibatches), so the methods differ only in the query rule.\n\n"
-                    "| Task | N_D | Method | TPR | TNR | F1 | Acc | TP | FP | TN | FN | rollout success |\n"
-                    "|---|---|---|---|---|---|---|---|---|---|---|---|\n",
-                    config.rq1_demos,
-                    config.train.from_scratch ? "the epoch rule" : fmt::format("{} steps", rq1_training(config).steps));
-  for (const std::string& name : o.methods) {
-    const Row& r = rows[name];
-    if (r.tpr.empty()) continue;
-    md += fmt::format("| {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} |\n", config.task, config.rq1_demos, method_title(name),
-                      pm(r.tpr), pm(r.tnr), pm(r.f1), pm(r.acc), r.tp, r.fp, r.tn, r.fn, pm(r.rq1_success));
-  }
-  md += fmt::format("\n## Table II: task performance (RQ2)\n\nSuccess rate of the final policy after interactive learning to N_f = {} "
-                    "expert demonstrations (successful ones: an episode the expert failed is recorded but not trained on). {}\n\n"
-                    "| Task | Method | Success rate |\n|---|---|---|\n",
-                    d.final_demos,
-                    bc_scaled ? fmt::format("BC: {} demonstrations, trained once with {}x the per-update budget, the gradient steps a DAgger "
-                                            "run spends over its {} updates, since updates continue from the previous weights.",
-                                            d.final_demos, bc_budget_factor(d), bc_budget_factor(d))
-                              : fmt::format("BC: {} demonstrations, trained once by the same epoch rule as every update.", d.final_demos));
-  for (const std::string& name : o.methods) md += fmt::format("| {} | {} | {} |\n", config.task, method_title(name), pm(rows[name].success));
-  md += "\n## Wall-clock per DAgger iteration (RQ3)\n\nThe final iteration (the paper's figure 4) and, in brackets, the mean over "
-        "a run's iterations. Thrifty's risk data: the robot rollouts and critic refit its RQ1 policy needed before it could "
-        "judge risk.\n\n| Method | training [s] | threshold setting [s] | inference [s] | total [s] | risk data [s] |\n"
-        "|---|---|---|---|---|---|\n";
-  for (const std::string& name : o.methods) {
-    const Row& r = rows[name];
-    md += fmt::format("| {} | {} ({}) | {} ({}) | {} ({}) | {:.2f} ({:.2f}) | {} |\n", method_title(name), pm(r.last_train), pm(r.train),
-                      pm(r.last_threshold), pm(r.threshold), pm(r.last_inference), pm(r.inference),
-                      mean(r.last_train) + mean(r.last_threshold) + mean(r.last_inference), mean(r.train) + mean(r.threshold) + mean(r.inference),
-                      r.risk_data.empty() ? "-" : pm(r.risk_data));
-  }
-  md += fmt::format("\nInference is the time spent deciding during the robot's rollouts between two updates. "
-                    "Plots: `rq1_failure_prediction.png`, `rq2_success.png`, `rq3_wallclock.png`. "
-                    "Each run's data set, checkpoints and query log are under `runs/`, each finished cell's numbers under `cells/`. "
-                    "Took {}{}.\n",
-                    format_duration(seconds), skipped > 0 ? fmt::format(" (and {} cells finished by an earlier, stopped run)", skipped) : "");
-  write_text(o.out + "/report.md", md);
-  fmt::print("{}", md);
+  write_eval_report(config, o, rows, seconds, skipped);
 }
 
 }  // namespace dd::app

@@ -42,6 +42,13 @@ Vec7 ArmEnv::ik_targets(const Eigen::Vector3d& p, const Eigen::Matrix3d& R) cons
   return arm_.ik(model_.get(), data_.get(), scratch_.get(), p, R, 30, 10.0);
 }
 
+std::vector<Eigen::Vector3d> ArmEnv::action_points(const Mat& chunk) const {
+  std::vector<Eigen::Vector3d> points;
+  if (control_ != ArmControl::kEndEffectorPose || chunk.cols() < 3) return points;
+  for (Eigen::Index r = 0; r < chunk.rows(); ++r) points.emplace_back(chunk(r, 0), chunk(r, 1), chunk(r, 2));
+  return points;
+}
+
 StepResult ArmEnv::step(const Vec& action) {
   StepResult r;
   if (failed_ || steps_ >= limit_) {

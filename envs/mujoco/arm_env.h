@@ -38,6 +38,10 @@ class ArmEnv : public Env {
   /// the tool pointing down at the yaw it had when the takeover began, and a gripper to toggle
   /// (envs/mujoco/arm_teleoperation.cpp).
   std::unique_ptr<Teleoperation> teleoperation() const override;
+  /// The model and data, for MuJoCo's renderer; under end-effector control a chunk's rows start with
+  /// TCP targets, shown as points.
+  std::optional<PhysicsScene> physics() const override { return PhysicsScene{model_.get(), data_.get()}; }
+  std::vector<Eigen::Vector3d> action_points(const Mat& chunk) const override;
 
   const mjModel* model() const { return model_.get(); }
   const mjData* data() const { return data_.get(); }

@@ -1,0 +1,26 @@
+// The evaluation's report, internal to app/experiments/: its numbers per method over seeds, and the
+// files made from them (rq1.csv, rq2.csv, rq3.csv, the three plots, report.md).
+#pragma once
+
+#include <map>
+#include <string>
+#include <vector>
+
+#include "app/experiments.h"
+
+namespace dd::app {
+
+/// One method's finished cells, one value per seed.
+struct EvalRow {
+  std::vector<double> tpr, tnr, f1, acc, rq1_success, success;
+  std::vector<double> train, threshold, inference, risk_data;      // mean over a run's iterations
+  std::vector<double> last_train, last_threshold, last_inference;  // the run's final iteration
+  int tp = 0, fp = 0, tn = 0, fn = 0;                              // summed over seeds
+};
+
+/// Writes the CSVs, plots and report.md into o.out and prints the report. `seconds`: what this run
+/// took; `skipped`: cells an earlier, stopped run had finished.
+void write_eval_report(const ExperimentConfig& config, const EvalOptions& o, const std::map<std::string, EvalRow>& rows,
+                       double seconds, int skipped);
+
+}  // namespace dd::app
