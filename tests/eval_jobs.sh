@@ -45,6 +45,7 @@ grep -q "RQ1 diff " "$dir/rq1.log" || { echo "FAIL: --only-rq1 did not print the
 cat > "$dir/cmp.yaml" <<'YAML'
 preset: nav2d
 train: {steps: 30, batch_size: 32, warmup_steps: 10}
+dagger: {initial_demos: 3, final_demos: 5, demos_per_update: 2}
 method: {members: 2, critic_steps: 50, loss_samples: 64, compare_scores: [epsilon, "target@2"]}
 rq1_demos: 2
 YAML
@@ -68,6 +69,23 @@ cmp -s <(strip "$dir/whole/cells/diff_seed0_rq1.json") <(strip "$dir/stopped/cel
   { echo "FAIL: the continued cell differs from the unstopped one"; diff "$dir/whole/cells/diff_seed0_rq1.json" "$dir/stopped/cells/diff_seed0_rq1.json"; exit 1; }
 grep -q '"target@2"' "$dir/whole/cells/diff_seed0_rq1.json" || { echo "FAIL: no compared rule in the cell"; exit 1; }
 [[ ! -e $dir/stopped/partial/diff_seed0_rq1 ]] || { echo "FAIL: the finished cell left its partial folder"; exit 1; }
+# the report: Table I and rq1.csv carry the compared rules' rows, with the cell's counts
+"$bin" --threads 1 eval --task nav2d --config "$dir/cmp.yaml" --episodes 16 --methods diff --out "$dir/whole" > "$dir/report.log" 2>&1 || { cat "$dir/report.log"; exit 1; }
+/usr/bin/python3 - "$dir/whole" <<'PY' || exit 1
+import csv, json, sys
+d = sys.argv[1]
+cell = json.load(open(d + "/cells/diff_seed0_rq1.json"))
+rows = {r["method"]: r for r in csv.DictReader(open(d + "/rq1.csv"))}
+for rule, p in cell["compare"].items():
+    r = rows.get("diff@" + rule)
+    if r is None or [int(r[k]) for k in ("tp", "fp", "tn", "fn")] != [p[k] for k in ("tp", "fp", "tn", "fn")]:
+        sys.exit(f"FAIL: rq1.csv's row diff@{rule} is {r}, the cell says {p}")
+if [int(rows["diff"][k]) for k in ("tp", "fp", "tn", "fn")] != [cell[k] for k in ("tp", "fp", "tn", "fn")]:
+    sys.exit("FAIL: rq1.csv's diff row is not the cell's main rule")
+report = open(d + "/report.md").read()
+if "scored target@2" not in report or "scored epsilon" not in report:
+    sys.exit("FAIL: Table I has no rows for the compared rules")
+PY
 # a cell that cannot run: the rerun names it and its log, keeps the others, and fails
 rm "$dir/two/cells/bc_seed0_rq2.json" "$dir/two/cells/diff_seed0_rq2.json"
 rm -rf "$dir/two/runs" && touch "$dir/two/runs"  # no folder can be made for their runs
@@ -77,4 +95,4 @@ fi
 grep -q "cells failed" "$dir/fail.log" && grep -q "logs/bc_seed0_rq2.log" "$dir/fail.log" ||
   { echo "FAIL: the failed cells and their logs are not named"; cat "$dir/fail.log"; exit 1; }
 [[ -f $dir/two/cells/thrifty_seed0_rq2.json ]] || { echo "FAIL: a finished cell was lost"; exit 1; }
-echo "eval --jobs: same RQ1 and RQ2 as one process, logs per cell, failures named; a stopped RQ1 cell continues to the same numbers"
+echo "eval --jobs: same RQ1 and RQ2 as one process, logs per cell, failures named; a stopped RQ1 cell continues to the same numbers; compared rules reach the report"

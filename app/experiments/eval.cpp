@@ -503,14 +503,9 @@ void run_eval(const ExperimentConfig& config, const EvalOptions& o) {
           run_rq1_cell(name, s);
           j = finished(file, {file});
         }
-        // undefined rates (NaN) are written as null
-        auto rate = [&](const char* k) { return (*j)[k].is_number() ? (*j)[k].get<double>() : NAN; };
-        row.tpr.push_back(rate("tpr"));
-        row.tnr.push_back(rate("tnr"));
-        row.f1.push_back(rate("f1"));
-        row.acc.push_back(rate("acc"));
-        row.tp += (*j)["tp"].get<int>(), row.fp += (*j)["fp"].get<int>(), row.tn += (*j)["tn"].get<int>(), row.fn += (*j)["fn"].get<int>();
-        row.rq1_success.push_back((*j)["success"].get<double>());
+        row.add_rq1(*j, (*j)["success"].get<double>());
+        if (j->contains("compare"))  // method.compare_scores: the other rules judged on the same rollouts
+          for (const auto& [rule, p] : (*j)["compare"].items()) row.compared[rule].add_rq1(p, (*j)["success"].get<double>());
         if (method_info(name).learns_risk) row.risk_data.push_back((*j)["risk_data_s"].get<double>());
       }
       const std::string file = cell_file(name, s, false);

@@ -33,7 +33,31 @@ std::string pm(const std::vector<double>& v) {
 
 std::string csv_num(double v) { return std::isfinite(v) ? fmt::format("{:.3f}", v) : "nan"; }
 
+// Table I's and rq1.csv's rows of a method: its own rule, then the rules it was compared with.
+std::vector<std::pair<std::string, const EvalRow*>> rq1_rows(const std::string& name, const EvalRow& row) {
+  std::vector<std::pair<std::string, const EvalRow*>> out;
+  if (row.tpr.empty()) return out;
+  out.emplace_back(name, &row);
+  for (const auto& [rule, r] : row.compared) out.emplace_back(name + "@" + rule, &r);
+  return out;
+}
+
+std::string rq1_title(const std::string& name, const std::string& row_name) {
+  const size_t at = row_name.find('@');
+  return at == std::string::npos ? method_title(name) : fmt::format("{}, scored {}", method_title(name), row_name.substr(at + 1));
+}
+
 }  // namespace
+
+void EvalRow::add_rq1(const nlohmann::json& cell, double rollout_success) {
+  auto rate = [&](const char* k) { return cell.at(k).is_number() ? cell.at(k).get<double>() : NAN; };
+  tpr.push_back(rate("tpr"));
+  tnr.push_back(rate("tnr"));
+  f1.push_back(rate("f1"));
+  acc.push_back(rate("acc"));
+  tp += cell.at("tp").get<int>(), fp += cell.at("fp").get<int>(), tn += cell.at("tn").get<int>(), fn += cell.at("fn").get<int>();
+  rq1_success.push_back(rollout_success);
+}
 
 void write_eval_report(const ExperimentConfig& config, const EvalOptions& o, const std::map<std::string, EvalRow>& rows,
                        double seconds, int skipped) {
@@ -47,14 +71,15 @@ void write_eval_report(const ExperimentConfig& config, const EvalOptions& o, con
       "method,train_s,threshold_s,inference_s,total_s,last_train_s,last_threshold_s,last_inference_s,last_total_s,risk_data_s,"
       "train_s_std,threshold_s_std,inference_s_std,seeds\n";
   for (const std::string& name : o.methods) {
-    const EvalRow& r = rows.at(name);
-    if (!r.tpr.empty()) {
-      rq1 += fmt::format("{},{},{},{},{},{},{},{},{},{},{},{},{},{:.3f},{},{}\n", name, csv_num(finite_mean_std(r.tpr).first),
+    for (const auto& [row_name, rp] : rq1_rows(name, rows.at(name))) {
+      const EvalRow& r = *rp;
+      rq1 += fmt::format("{},{},{},{},{},{},{},{},{},{},{},{},{},{:.3f},{},{}\n", row_name, csv_num(finite_mean_std(r.tpr).first),
                          csv_num(finite_mean_std(r.tnr).first), csv_num(finite_mean_std(r.f1).first), csv_num(finite_mean_std(r.acc).first),
                          csv_num(finite_mean_std(r.tpr).second), csv_num(finite_mean_std(r.tnr).second),
                          csv_num(finite_mean_std(r.f1).second), csv_num(finite_mean_std(r.acc).second), r.tp, r.fp, r.tn, r.fn,
                          mean(r.rq1_success), o.seeds, o.episodes);
     }
+    const EvalRow& r = rows.at(name);
     rq2 += fmt::format("{},{:.3f},{},{:.3f},{}\n", name, mean_std(r.success).first, o.episodes * o.seeds, mean_std(r.success).second,
                        o.seeds);
     const double risk = r.risk_data.empty() ? 0.0 : mean(r.risk_data);
@@ -126,12 +151,17 @@ void write_eval_report(const ExperimentConfig& config, const EvalOptions& o, con
                     "|---|---|---|---|---|---|---|---|---|---|---|---|\n",
                     config.rq1_demos,
                     config.train.from_scratch ? "the epoch rule" : fmt::format("{} steps", rq1_training(config).steps));
-  for (const std::string& name : o.methods) {
-    const EvalRow& r = rows.at(name);
-    if (r.tpr.empty()) continue;
-    md += fmt::format("| {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} |\n", config.task, config.rq1_demos, method_title(name),
-                      pm(r.tpr), pm(r.tnr), pm(r.f1), pm(r.acc), r.tp, r.fp, r.tn, r.fn, pm(r.rq1_success));
-  }
+  for (const std::string& name : o.methods)
+    for (const auto& [row_name, rp] : rq1_rows(name, rows.at(name))) {
+      const EvalRow& r = *rp;
+      md += fmt::format("| {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} |\n", config.task, config.rq1_demos,
+                        rq1_title(name, row_name), pm(r.tpr), pm(r.tnr), pm(r.f1), pm(r.acc), r.tp, r.fp, r.tn, r.fn, pm(r.rq1_success));
+    }
+  if (!config.method.compare_scores.empty())
+    md += fmt::format("\nRows \"scored R\" judge the same rollouts by another gate rule (method.compare_scores; R is the score space, "
+                      "and @K keeps the diffusion timesteps below K), each with its own alpha-quantile threshold over the same "
+                      "training pairs; the method acted on its main rule (score space {}).\n",
+                      config.method.score_space);
   md += fmt::format("\n## Table II: task performance (RQ2)\n\nSuccess rate of the final policy after interactive learning to N_f = {} "
                     "expert demonstrations (successful ones: an episode the expert failed is recorded but not trained on). {}\n\n"
                     "| Task | Method | Success rate |\n|---|---|---|\n",

@@ -6,6 +6,8 @@
 #include <string>
 #include <vector>
 
+#include <nlohmann/json.hpp>
+
 #include "app/experiments.h"
 
 namespace dd::app {
@@ -16,6 +18,13 @@ struct EvalRow {
   std::vector<double> train, threshold, inference, risk_data;      // mean over a run's iterations
   std::vector<double> last_train, last_threshold, last_inference;  // the run's final iteration
   int tp = 0, fp = 0, tn = 0, fn = 0;                              // summed over seeds
+  /// Diff-DAgger's further gate rules (method.compare_scores), judged on the same rollouts: their
+  /// RQ1 numbers, by rule.
+  std::map<std::string, EvalRow> compared;
+
+  /// One seed's RQ1 numbers from its cell (or a compared rule's entry in it); undefined rates are
+  /// null there and NaN here.
+  void add_rq1(const nlohmann::json& cell, double rollout_success);
 };
 
 /// Writes the CSVs, plots and report.md into o.out and prints the report. `seconds`: what this run
