@@ -2,6 +2,7 @@
 #include <fmt/format.h>
 
 #include "app/commands.h"
+#include "envs/registry.h"
 #include "app/experiments.h"
 #include "ui/console_app.h"
 
@@ -18,7 +19,7 @@ Command add_gui(CLI::App& app) {
     ui::ConsoleRunOptions run;
   };
   auto o = std::make_shared<Opts>();
-  cmd->add_option("--task", o->task, "task: nav2d, nav2d_random, stack, push, plug")->capture_default_str();
+  cmd->add_option("--task", o->task, "task: " + fmt::format("{}", fmt::join(task_names(), ", ")))->capture_default_str();
   cmd->add_option("--method", o->method, "query rule")->capture_default_str()->check(CLI::IsMember(method_names()));
   cmd->add_option("--config", o->config, "YAML config file overriding the task's preset");
   cmd->add_option("--expert", o->expert, "scripted expert mode (nav2d: cw, ccw, mixed; push: those and alternate; push, plug: +noise records demonstrations with execution noise; default: the preset's)");
