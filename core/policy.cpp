@@ -281,7 +281,7 @@ std::string to_string(InferencePrecision p) { return p == InferencePrecision::kB
 
 void DiffusionPolicy::set_inference_precision(InferencePrecision p) {
   if (p == InferencePrecision::kBFloat16 && !nn::have_bf16_gemm())
-    throw Error("inference precision bfloat16: this build has no oneDNN (install libdnnl-dev and rebuild)");
+    throw Error("inference precision bfloat16 (method.precision): oneDNN's bf16 matmul is not available here (a build without libdnnl-dev, or a CPU without AVX-512); use float32");
   impl_->precision = p;
 }
 

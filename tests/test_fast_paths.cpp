@@ -88,10 +88,25 @@ TEST(FastPaths, FastDenoiserMatchesTorchsDenoisingPass) {
   }
 }
 
+// Where oneDNN has no bf16 matmul (a CPU without AVX-512), asking for bfloat16 is an Error that names
+// the setting and the way out, and the policy keeps float32.
+TEST(FastPaths, BFloat16IsRefusedByNameWhereItCannotRun) {
+  if (nn::have_bf16_gemm()) GTEST_SKIP() << "bf16 matmul is available here";
+  DiffusionPolicy policy(small_config("cpu"), 5, false);
+  try {
+    policy.set_inference_precision(InferencePrecision::kBFloat16);
+    FAIL() << "bfloat16 accepted without a bf16 matmul";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("method.precision"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("float32"), std::string::npos) << e.what();
+  }
+  EXPECT_EQ(policy.inference_precision(), InferencePrecision::kFloat32);
+}
+
 // bfloat16 products (the option, not the default): close to float32 at the presets' shapes, and the
 // expected losses of a trained policy keep their order (what the gate's threshold depends on).
 TEST(FastPaths, BFloat16DenoiserStaysCloseToFloat32) {
-  if (!nn::have_bf16_gemm()) GTEST_SKIP() << "built without oneDNN";
+  if (!nn::have_bf16_gemm()) GTEST_SKIP() << "no oneDNN bf16 matmul here (built without libdnnl-dev, or a CPU without AVX-512)";
   for (const char* unet : {"cpu", "medium"}) {
     PolicyConfig c = small_config(unet);
     c.obs_dim = 24;
@@ -113,7 +128,7 @@ TEST(FastPaths, BFloat16DenoiserStaysCloseToFloat32) {
 }
 
 TEST(FastPaths, BFloat16ExpectedLossesKeepTheirOrder) {
-  if (!nn::have_bf16_gemm()) GTEST_SKIP() << "built without oneDNN";
+  if (!nn::have_bf16_gemm()) GTEST_SKIP() << "no oneDNN bf16 matmul here (built without libdnnl-dev, or a CPU without AVX-512)";
   const PolicyConfig c = small_config("tiny");
   DiffusionPolicy policy(c, 3, false);
   const ChunkDataset data = ChunkDataset::from_episodes(bimodal_episodes(8, 20, 5, 3, 2), c.horizon);
@@ -139,7 +154,7 @@ TEST(FastPaths, BFloat16ExpectedLossesKeepTheirOrder) {
 }
 
 TEST(FastPaths, BFloat16WeightsAreConvertedAgainWhenTheWeightsChange) {
-  if (!nn::have_bf16_gemm()) GTEST_SKIP() << "built without oneDNN";
+  if (!nn::have_bf16_gemm()) GTEST_SKIP() << "no oneDNN bf16 matmul here (built without libdnnl-dev, or a CPU without AVX-512)";
   const PolicyConfig c = small_config("tiny");
   DiffusionPolicy policy(c, 3, false);
   policy.set_inference_precision(InferencePrecision::kBFloat16);
@@ -179,7 +194,7 @@ TEST(FastPaths, EmaAndRawWeightsKeepTheirOwnFastDenoiser) {
 }
 
 TEST(FastPaths, BFloat16BatchOneSamplingUsesItWhereTheWeightsAreMany) {
-  if (!nn::have_bf16_gemm()) GTEST_SKIP() << "built without oneDNN";
+  if (!nn::have_bf16_gemm()) GTEST_SKIP() << "no oneDNN bf16 matmul here (built without libdnnl-dev, or a CPU without AVX-512)";
   PolicyConfig c = small_config("medium");  // 64,128,256: middle blocks of 256 x 1280 weights
   DiffusionPolicy policy(c, 4, false);
   const Vec o = Vec::Constant(c.obs_dim, 0.3f);

@@ -52,7 +52,23 @@ Engine& engine() {
 
 }  // namespace
 
-bool have_bf16_gemm() { return true; }
+// oneDNN 2.6 has bf16 matmul kernels only for AVX-512 CPUs (native BF16, or emulated on AVX-512
+// core); on others creating the primitive fails. Asked once, with a 1 x 1 x 1 product.
+bool have_bf16_gemm() {
+  static const bool available = [] {
+    try {
+      using dt = dnnl::memory::data_type;
+      using tag = dnnl::memory::format_tag;
+      const dnnl::engine eng(dnnl::engine::kind::cpu, 0);
+      const dnnl::memory::desc a({1, 1}, dt::bf16, tag::ab), b({1, 1}, dt::bf16, tag::ab), c({1, 1}, dt::f32, tag::ab);
+      dnnl::matmul::primitive_desc(dnnl::matmul::desc(a, b, c), eng);
+      return true;
+    } catch (const dnnl::error&) {
+      return false;
+    }
+  }();
+  return available;
+}
 
 void gemm_bf16(int M, int N, int K, const uint16_t* A, const uint16_t* B, float* C, bool accumulate) {
   using dt = dnnl::memory::data_type;

@@ -9,7 +9,8 @@
 
 namespace dd::nn {
 
-/// Whether this build has oneDNN (libdnnl-dev); without it the bfloat16 option is refused.
+/// Whether bfloat16 products can run here: a build with oneDNN (libdnnl-dev) on a CPU that oneDNN
+/// has bf16 kernels for (AVX-512); otherwise the bfloat16 option is refused.
 bool have_bf16_gemm();
 
 /// float32 -> bfloat16 with round-to-nearest-even (NaN stays NaN). Hand-written: five lines of bit

@@ -69,7 +69,7 @@ FastDenoiser::FastDenoiser(const ConditionalUnet1DImpl& net, Precision precision
   final_conv_ = conv_of(*net.final_conv_);
   action_dim_ = final_conv_.out;
   if (precision_ == Precision::kBFloat16) {
-    if (!have_bf16_gemm()) throw Error("fast denoiser: bfloat16 needs a build with oneDNN (libdnnl-dev)");
+    if (!have_bf16_gemm()) throw Error("fast denoiser: bfloat16 needs oneDNN's bf16 matmul (a build with libdnnl-dev, on a CPU with AVX-512)");
     convert_weights();
   }
 }

@@ -25,6 +25,7 @@
 
 #include "core/chunks.h"
 #include "core/ensemble.h"
+#include "core/nn/bf16_gemm.h"
 #include "core/nn/mish.h"
 #include "core/nn/policy_impl.h"
 #include "core/policy.h"
@@ -67,8 +68,16 @@ void TrainStep(benchmark::State& state, const PolicyConfig& config, bool torch_m
   set_fused_optimizer(true);
 }
 
+// The bfloat16 variants are skipped where oneDNN has no bf16 matmul (a CPU without AVX-512).
+bool unavailable(benchmark::State& state, InferencePrecision precision) {
+  if (precision != InferencePrecision::kBFloat16 || nn::have_bf16_gemm()) return false;
+  state.SkipWithError("no oneDNN bf16 matmul on this CPU (it needs AVX-512)");
+  return true;
+}
+
 void Sample(benchmark::State& state, const PolicyConfig& config, bool torch_denoise,
             InferencePrecision precision = InferencePrecision::kFloat32) {
+  if (unavailable(state, precision)) return;
   DiffusionPolicy policy(config, 0);
   policy.impl().torch_denoise = torch_denoise;
   policy.set_inference_precision(precision);
@@ -79,6 +88,7 @@ void Sample(benchmark::State& state, const PolicyConfig& config, bool torch_deno
 }
 
 void ExpectedLoss(benchmark::State& state, const PolicyConfig& config, InferencePrecision precision = InferencePrecision::kFloat32) {
+  if (unavailable(state, precision)) return;
   DiffusionPolicy policy(config, 0);
   policy.set_inference_precision(precision);
   const Vec obs = bench_data().obs.row(0).transpose();
@@ -90,6 +100,7 @@ void ExpectedLoss(benchmark::State& state, const PolicyConfig& config, Inference
 
 void Decision(benchmark::State& state, const PolicyConfig& config, bool torch_denoise,
               InferencePrecision precision = InferencePrecision::kFloat32) {
+  if (unavailable(state, precision)) return;
   DiffusionPolicy policy(config, 0);
   policy.impl().torch_denoise = torch_denoise;
   policy.set_inference_precision(precision);

@@ -16,6 +16,7 @@
 #include "core/chunks.h"
 #include "core/dataset.h"
 #include "core/gate.h"
+#include "core/nn/bf16_gemm.h"
 #include "core/policy.h"
 #include "core/runtime.h"
 
@@ -24,6 +25,10 @@ int main(int argc, char** argv) {
   if (argc < 3) {
     std::fprintf(stderr, "usage: %s CHECKPOINT DATASET [pairs=2000] [n_samples=512] [alpha=0.99]\n", argv[0]);
     return 2;
+  }
+  if (!nn::have_bf16_gemm()) {
+    std::fprintf(stderr, "%s: no oneDNN bf16 matmul here (built without libdnnl-dev, or a CPU without AVX-512)\n", argv[0]);
+    return 1;
   }
   set_num_threads();
   const auto policy = DiffusionPolicy::from_checkpoint(argv[1]);
