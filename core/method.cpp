@@ -34,9 +34,8 @@ class DiffMethod : public Method {
     policy_.set_inference_precision(inference_precision_from(mc.precision));
     for (const std::string& r : mc.compare_scores) {
       compare_.push_back(ScoreRule::parse(r));
-      use(compare_.back());  // checks K against T_d now rather than at the first decision
+      ScoredBy check(*this, compare_.back());  // checks the rule against T_d now rather than at the first decision
     }
-    use(main_rule_);
     compare_thresholds_.assign(compare_.size(), INFINITY);
   }
   std::string name() const override { return "diff"; }
@@ -80,12 +79,11 @@ class DiffMethod : public Method {
     m.reason = m.violation ? QueryReason::kScore : QueryReason::kNone;
     // The compared rules score the same chunk, each in its own way, with noise of their own.
     for (size_t i = 0; i < compare_.size(); ++i) {
-      use(compare_[i]);
+      ScoredBy rule(*this, compare_[i]);
       const float loss = policy_.expected_loss(obs, d.chunk, seed ^ (0x5C0E'0000'0000'0000ull + i), config_.loss_samples);
       m.compare_scores.push_back(loss);
       m.compare_violations.push_back(violates(loss, compare_thresholds_[i]));
     }
-    if (!compare_.empty()) use(main_rule_);
     return m;
   }
   float threshold() const override { return threshold_; }
@@ -96,6 +94,18 @@ class DiffMethod : public Method {
     policy_.set_score_space(score_space_from(r.space));
     policy_.set_score_timesteps(r.timesteps);
   }
+  // The policy scores by a compared rule while one of these lives, and by the method's own rule again
+  // when it goes, also when scoring throws.
+  class ScoredBy {
+   public:
+    ScoredBy(DiffMethod& m, const ScoreRule& r) : m_(m) { m_.use(r); }
+    ~ScoredBy() { m_.use(m_.main_rule_); }
+    ScoredBy(const ScoredBy&) = delete;
+    ScoredBy& operator=(const ScoredBy&) = delete;
+
+   private:
+    DiffMethod& m_;
+  };
   // The alpha-quantile of the expected loss over the training pairs (a subset when calibration_pairs),
   // and of each compared rule's score over the same pairs.
   void set_threshold(const ChunkDataset& data, UpdateReport& r) {
@@ -112,10 +122,9 @@ class DiffMethod : public Method {
     r.threshold_s = since(t);  // the compared rules' thresholds are not the method's cost
     r.threshold = threshold_;
     for (size_t i = 0; i < compare_.size(); ++i) {
-      use(compare_[i]);
+      ScoredBy rule(*this, compare_[i]);
       compare_thresholds_[i] = quantile();
     }
-    if (!compare_.empty()) use(main_rule_);
   }
 
  protected:

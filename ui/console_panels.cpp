@@ -16,7 +16,8 @@ void loss_plot(const Console::State& s, ImVec2 pos, ImVec2 size) {
   std::string title = m.score.empty() ? "Query score" : m.score;
   title[0] = static_cast<char>(std::toupper(static_cast<unsigned char>(title[0])));
   begin_panel((title + " per decision###plot").c_str(), pos, size);
-  const DecisionPoint* last = s.view.decisions().empty() ? nullptr : &s.view.decisions().back();
+  const std::deque<DecisionPoint>& decisions = s.view.decisions();
+  const DecisionPoint* last = decisions.empty() ? nullptr : &decisions.back();
   if (last) {
     ImGui::TextColored(ImVec4(0.55f, 0.75f, 1.f, 1.f), "score %.4g", last->score);
     ImGui::SameLine(0, 18);
@@ -35,16 +36,16 @@ void loss_plot(const Console::State& s, ImVec2 pos, ImVec2 size) {
   const ImVec2 a(p0.x + left, p0.y + 4), b(p0.x + avail.x - 6, p0.y + avail.y - bottom);
   dl->AddRectFilled(a, b, IM_COL32(14, 16, 21, 255), 4.f);
   ImGui::Dummy(avail);
-  if (s.view.decisions().empty() || b.x - a.x < 20) {
+  if (decisions.empty() || b.x - a.x < 20) {
     ImGui::End();
     return;
   }
   const int window = 120;
-  const int n = static_cast<int>(s.view.decisions().size());
+  const int n = static_cast<int>(decisions.size());
   const int first = std::max(0, n - window);
   float lo = INFINITY, hi = -INFINITY;
   for (int i = first; i < n; ++i) {
-    const DecisionPoint& d = s.view.decisions()[static_cast<size_t>(i)];
+    const DecisionPoint& d = decisions[static_cast<size_t>(i)];
     for (float v : {d.score, d.threshold})
       if (v > 0 && std::isfinite(v)) {
         lo = std::min(lo, std::log10(v));
@@ -69,18 +70,18 @@ void loss_plot(const Console::State& s, ImVec2 pos, ImVec2 size) {
   }
   // episode boundaries
   for (int i = first + 1; i < n; ++i)
-    if (s.view.decisions()[static_cast<size_t>(i)].episode != s.view.decisions()[static_cast<size_t>(i - 1)].episode)
+    if (decisions[static_cast<size_t>(i)].episode != decisions[static_cast<size_t>(i - 1)].episode)
       dl->AddLine(ImVec2(X(i) - 0.5f * (X(1) - X(0)), a.y), ImVec2(X(i) - 0.5f * (X(1) - X(0)), b.y), IM_COL32(255, 255, 255, 30));
   dl->PushClipRect(a, b, true);
   for (int i = first + 1; i < n; ++i) {
-    const DecisionPoint& d0 = s.view.decisions()[static_cast<size_t>(i - 1)];
-    const DecisionPoint& d1 = s.view.decisions()[static_cast<size_t>(i)];
+    const DecisionPoint& d0 = decisions[static_cast<size_t>(i - 1)];
+    const DecisionPoint& d1 = decisions[static_cast<size_t>(i)];
     dl->AddLine(ImVec2(X(i - 1), Y(d0.threshold)), ImVec2(X(i), Y(d0.threshold)), kThresholdColor, 2.f);
     dl->AddLine(ImVec2(X(i), Y(d0.threshold)), ImVec2(X(i), Y(d1.threshold)), kThresholdColor, 2.f);
     if (d0.episode == d1.episode) dl->AddLine(ImVec2(X(i - 1), Y(d0.score)), ImVec2(X(i), Y(d1.score)), kScoreColor, 2.f);
   }
   for (int i = first; i < n; ++i) {
-    const DecisionPoint& d = s.view.decisions()[static_cast<size_t>(i)];
+    const DecisionPoint& d = decisions[static_cast<size_t>(i)];
     if (d.violation) {
       dl->AddCircleFilled(ImVec2(X(i), Y(d.score)), 4.5f, kViolationRed);
       if (d.run >= s.o.config.dagger.patience) {
@@ -93,7 +94,7 @@ void loss_plot(const Console::State& s, ImVec2 pos, ImVec2 size) {
   }
   dl->PopClipRect();
   char t[48];
-  std::snprintf(t, sizeof t, "decision %d", s.view.decisions().back().index + 1);
+  std::snprintf(t, sizeof t, "decision %d", decisions.back().index + 1);
   dl->AddText(ImVec2(b.x - ImGui::CalcTextSize(t).x, b.y + 2), kAxisText, t);
   dl->AddText(ImVec2(a.x, b.y + 2), kAxisText, "last 120 decisions; red: above threshold");
   ImGui::End();
@@ -108,12 +109,13 @@ void timeline_view(const Console::State& s, ImVec2 pos, ImVec2 size) {
   ImGui::Dummy(avail);
   const float row_h = 15, gap = 4, label_w = 44;
   const int rows = std::max(1, static_cast<int>((avail.y - 18) / (row_h + gap)));
-  const int n = static_cast<int>(s.view.timelines().size());
+  const std::deque<Timeline>& timelines = s.view.timelines();
+  const int n = static_cast<int>(timelines.size());
   const int first = std::max(0, n - rows);
   const int T = s.o.config.dagger.expert_time_limit > 0 ? s.o.config.dagger.expert_time_limit : 2 * s.o.config.dagger.time_limit;
   const float w = avail.x - label_w - 36;
   for (int r = first; r < n; ++r) {
-    const Timeline& tl = s.view.timelines()[static_cast<size_t>(r)];
+    const Timeline& tl = timelines[static_cast<size_t>(r)];
     const float y = p0.y + (r - first) * (row_h + gap);
     char t[16];
     std::snprintf(t, sizeof t, "#%d", tl.episode);
@@ -151,20 +153,22 @@ void session_view(const Console::State& s, ImVec2 pos, ImVec2 size) {
   begin_panel("Session", pos, size);
   const DaggerSession& se = *s.session;
   const DaggerConfig& d = s.o.config.dagger;
+  const ConsoleCounts& counts = s.view.counts();
+  const UpdateReport& report = s.view.last_report();
   ImGui::Columns(2, nullptr, false);
   stat_row("episode", std::to_string(se.episode()) + (se.in_episode() ? ", step " + std::to_string(s.env->steps()) : ""));
   stat_row("expert demos", std::to_string(se.expert_demos()) + " / " + std::to_string(d.final_demos) + " (N_f)");
   stat_row("interventions", std::to_string(se.interventions()) + " (update every " + std::to_string(d.demos_per_update) + ")");
-  stat_row("queries", std::to_string(s.view.counts().queries) + ", time-outs " + std::to_string(s.view.counts().timeouts));
-  stat_row("takeovers", std::to_string(s.view.counts().takeovers) + " by the operator");
-  stat_row("robot alone", std::to_string(s.view.counts().robot_successes) + " / " + std::to_string(s.view.counts().robot_episodes) + " succeeded");
+  stat_row("queries", std::to_string(counts.queries) + ", time-outs " + std::to_string(counts.timeouts));
+  stat_row("takeovers", std::to_string(counts.takeovers) + " by the operator");
+  stat_row("robot alone", std::to_string(counts.robot_successes) + " / " + std::to_string(counts.robot_episodes) + " succeeded");
   ImGui::NextColumn();
   stat_row("updates", std::to_string(se.updates()));
-  stat_row("training pairs", se.updates() ? std::to_string(s.view.last_report().pairs) : "-");
+  stat_row("training pairs", se.updates() ? std::to_string(report.pairs) : "-");
   char b[64];
-  std::snprintf(b, sizeof b, "%.4g", s.view.last_report().threshold);
+  std::snprintf(b, sizeof b, "%.4g", report.threshold);
   stat_row("threshold", se.updates() ? b : "-");
-  stat_row("train / thresh.", se.updates() ? fmt_seconds(s.view.last_report().train_s) + " / " + fmt_seconds(s.view.last_report().threshold_s) : "-");
+  stat_row("train / thresh.", se.updates() ? fmt_seconds(report.train_s) + " / " + fmt_seconds(report.threshold_s) : "-");
   std::snprintf(b, sizeof b, "%.0f ms", s.view.last_decision_ms());
   stat_row("decision time", s.view.decisions().empty() ? "-" : b);
   if (s.o.fixed_step) std::snprintf(b, sizeof b, "fixed step %.0f ms", 1e3 / s.env->control_hz());
