@@ -98,6 +98,8 @@ case "$cmd" in
     # libtorch, OpenMP and Mesa keep allocations to the end of the process: leak reports would be theirs
     ASAN_OPTIONS=${ASAN_OPTIONS:-detect_leaks=0} UBSAN_OPTIONS=${UBSAN_OPTIONS:-print_stacktrace=1:halt_on_error=1} \
       ctest --output-on-failure -j "$JOBS" "$@"
+    # a passing test may still hold a report (a child process it expected to crash): list them all
+    ../tests/sanitizer_reports.sh Testing/Temporary/LastTest.log
     ;;
   fuzz)
     install_missing
