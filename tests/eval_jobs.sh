@@ -28,6 +28,9 @@ for cell in diff_seed0_rq1 diff_seed0_rq2 thrifty_seed0_rq1 thrifty_seed0_rq2 bc
   [[ -f $dir/two/cells/$cell.json ]] || { echo "FAIL: no cell file for $cell"; exit 1; }
 done
 grep -q "5/5 cells" "$dir/two.log" || { echo "FAIL: no progress line for the last cell"; cat "$dir/two.log"; exit 1; }
+# interactive learning says where it is: a line per update in the cell's log
+grep -q "RQ2 diff     update 1: 3/5 demonstrations" "$dir/two/logs/diff_seed0_rq2.log" ||
+  { echo "FAIL: no line for update 1 in the DAgger cell's log"; cat "$dir/two/logs/diff_seed0_rq2.log"; exit 1; }
 grep -q "cells finished by an earlier" "$dir/two/report.md" && { echo "FAIL: cells run by --jobs counted as an earlier run's"; exit 1; }
 # --only-rq1: the RQ1 cells alone, the same numbers as the full evaluation's, no DAgger run, no report
 "$bin" --threads 2 "${args[@]}" --jobs 2 --only-rq1 --out "$dir/rq1" > "$dir/rq1.log" 2>&1 || { cat "$dir/rq1.log"; exit 1; }

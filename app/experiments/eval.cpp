@@ -418,6 +418,7 @@ void run_eval(const ExperimentConfig& config, const EvalOptions& o) {
     ro.method = name;
     ro.out = o.out + "/runs/" + name + "_seed" + std::to_string(s);
     ro.quiet = true;
+    ro.label = fmt::format("[seed {}] RQ2 {:8}", s, name);
     // a cell stopped mid-run continues from its last update's resume point; anything else starts afresh
     if (!fs::exists(ro.out + "/resume/latest.json")) fs::remove_all(ro.out);
     std::unique_ptr<Method> trained;
