@@ -22,7 +22,7 @@ Command add_collect(CLI::App& app) {
     bool keep_failures = false;
   };
   auto o = std::make_shared<Opts>();
-  cmd->add_option("--task", o->task, "task: " + fmt::format("{}", fmt::join(task_names(), ", ")))->capture_default_str();
+  add_task_option(cmd, o->task);
   cmd->add_option("--episodes", o->episodes, "episodes to run")->capture_default_str()->check(CLI::PositiveNumber);
   cmd->add_option("--out", o->out, "data set file (.hdf5); appended to when it exists and matches the task")->required();
   cmd->add_option("--expert", o->expert, "expert mode (nav2d: cw, ccw, mixed; push: those and alternate; stack, plug: planner, detour; push, plug: any of them with +noise, demonstrations recorded with execution noise)")->capture_default_str();

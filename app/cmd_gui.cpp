@@ -19,7 +19,7 @@ Command add_gui(CLI::App& app) {
     ui::ConsoleRunOptions run;
   };
   auto o = std::make_shared<Opts>();
-  cmd->add_option("--task", o->task, "task: " + fmt::format("{}", fmt::join(task_names(), ", ")))->capture_default_str();
+  add_task_option(cmd, o->task);
   cmd->add_option("--method", o->method, "query rule")->capture_default_str()->check(CLI::IsMember(method_names()));
   cmd->add_option("--config", o->config, "YAML config file overriding the task's preset");
   cmd->add_option("--expert", o->expert, "scripted expert mode (nav2d: cw, ccw, mixed; push: those and alternate; push, plug: +noise records demonstrations with execution noise; default: the preset's)");

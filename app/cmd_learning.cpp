@@ -14,7 +14,7 @@ Command add_dagger(CLI::App& app) {
     uint64_t seed = 0;
   };
   auto o = std::make_shared<Opts>();
-  cmd->add_option("--task", o->task, "task: " + fmt::format("{}", fmt::join(task_names(), ", ")))->capture_default_str();
+  add_task_option(cmd, o->task);
   cmd->add_option("--method", o->method, "query rule")->capture_default_str()->check(CLI::IsMember(method_names()));
   cmd->add_option("--out", o->out, "output folder: dataset.hdf5, checkpoints/, queries.jsonl, config.json")->required();
   cmd->add_option("--config", o->config, "YAML config file overriding the task's preset");
@@ -45,7 +45,7 @@ Command add_eval(CLI::App& app) {
     bool quick = false;
   };
   auto o = std::make_shared<Opts>();
-  cmd->add_option("--task", o->task, "task: " + fmt::format("{}", fmt::join(task_names(), ", ")) + " (its preset; --config for another)")->capture_default_str();
+  add_task_option(cmd, o->task, "(its preset; --config for another)");
   cmd->add_option("--out", o->eval.out, "output folder")->capture_default_str();
   cmd->add_option("--config", o->config, "YAML config file overriding the task's preset");
   cmd->add_flag("--quick", o->quick, "tiny budgets, for a smoke test (minutes)");

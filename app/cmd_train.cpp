@@ -18,7 +18,7 @@ Command add_train(CLI::App& app) {
     uint64_t seed = 0;
   };
   auto o = std::make_shared<Opts>();
-  cmd->add_option("--task", o->task, "task: " + fmt::format("{}", fmt::join(task_names(), ", ")) + " (its preset; another, e.g. push_2experts, through a --config file naming it)")->capture_default_str();
+  add_task_option(cmd, o->task, "(its preset; another, e.g. push_2experts, through a --config file naming it)");
   cmd->add_option("--config", o->config, "YAML config file overriding the task's preset");
   cmd->add_option("--data", o->train.data, "data set to train on (robomimic layout); without it, --demos are collected");
   cmd->add_option("--demos", o->train.demos, "the first N successful expert episodes (0: all)")->capture_default_str()->check(CLI::NonNegativeNumber);

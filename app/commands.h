@@ -3,12 +3,16 @@
 #pragma once
 
 #include <functional>
+#include <string>
 
 #include <CLI/CLI.hpp>
 
 namespace dd::app {
 
 using Command = std::function<int()>;
+
+/// `--task NAME` on a command; its help lists the registered tasks, then `more` when given.
+CLI::Option* add_task_option(CLI::App* cmd, std::string& task, const std::string& more = "");
 
 /// `bimodal`: train a small policy on a synthetic two-mode data set, sample it, score it, save it.
 Command add_bimodal(CLI::App& app);

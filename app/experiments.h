@@ -29,7 +29,7 @@ struct DaggerRunOptions {
   std::string method = "diff";   // diff | ensemble | thrifty | bc
   std::string out;               // folder: dataset.hdf5, checkpoints/, queries.jsonl, config.json
   bool quiet = false;            // no progress bars
-  std::string label;             // with quiet: a line per update (and on resuming) starting with this
+  std::string label;             // starts the line per update (and on resuming); with it, quiet keeps those lines
   int stop_after_update = 0;     // stop after this update's resume point, as a stopped run would (0: run to the end)
 };
 

@@ -1,4 +1,5 @@
 // diffdagger: robot-gated interactive imitation learning with diffusion policies.
+#include <fmt/format.h>
 #include <spdlog/spdlog.h>
 
 #include <map>
@@ -7,6 +8,16 @@
 #include "app/experiments.h"
 #include "core/config.h"
 #include "core/runtime.h"
+#include "envs/registry.h"
+
+namespace dd::app {
+
+CLI::Option* add_task_option(CLI::App* cmd, std::string& task, const std::string& more) {
+  return cmd->add_option("--task", task, fmt::format("task: {}{}", fmt::join(task_names(), ", "), more.empty() ? "" : " " + more))
+      ->capture_default_str();
+}
+
+}  // namespace dd::app
 
 int main(int argc, char** argv) {
   CLI::App app{"diffdagger: teach a robot by correcting it (Diff-DAgger and its baselines)"};

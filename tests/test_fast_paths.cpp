@@ -88,6 +88,8 @@ TEST(FastPaths, FastDenoiserMatchesTorchsDenoisingPass) {
   }
 }
 
+constexpr const char* kNoBf16 = "no oneDNN bf16 matmul here (built without libdnnl-dev, or a CPU without AVX-512)";
+
 // Where oneDNN has no bf16 matmul (a CPU without AVX-512), asking for bfloat16 is an Error that names
 // the setting and the way out, and the policy keeps float32.
 TEST(FastPaths, BFloat16IsRefusedByNameWhereItCannotRun) {
@@ -106,7 +108,7 @@ TEST(FastPaths, BFloat16IsRefusedByNameWhereItCannotRun) {
 // bfloat16 products (the option, not the default): close to float32 at the presets' shapes, and the
 // expected losses of a trained policy keep their order (what the gate's threshold depends on).
 TEST(FastPaths, BFloat16DenoiserStaysCloseToFloat32) {
-  if (!nn::have_bf16_gemm()) GTEST_SKIP() << "no oneDNN bf16 matmul here (built without libdnnl-dev, or a CPU without AVX-512)";
+  if (!nn::have_bf16_gemm()) GTEST_SKIP() << kNoBf16;
   for (const char* unet : {"cpu", "medium"}) {
     PolicyConfig c = small_config(unet);
     c.obs_dim = 24;
@@ -128,7 +130,7 @@ TEST(FastPaths, BFloat16DenoiserStaysCloseToFloat32) {
 }
 
 TEST(FastPaths, BFloat16ExpectedLossesKeepTheirOrder) {
-  if (!nn::have_bf16_gemm()) GTEST_SKIP() << "no oneDNN bf16 matmul here (built without libdnnl-dev, or a CPU without AVX-512)";
+  if (!nn::have_bf16_gemm()) GTEST_SKIP() << kNoBf16;
   const PolicyConfig c = small_config("tiny");
   DiffusionPolicy policy(c, 3, false);
   const ChunkDataset data = ChunkDataset::from_episodes(bimodal_episodes(8, 20, 5, 3, 2), c.horizon);
@@ -154,7 +156,7 @@ TEST(FastPaths, BFloat16ExpectedLossesKeepTheirOrder) {
 }
 
 TEST(FastPaths, BFloat16WeightsAreConvertedAgainWhenTheWeightsChange) {
-  if (!nn::have_bf16_gemm()) GTEST_SKIP() << "no oneDNN bf16 matmul here (built without libdnnl-dev, or a CPU without AVX-512)";
+  if (!nn::have_bf16_gemm()) GTEST_SKIP() << kNoBf16;
   const PolicyConfig c = small_config("tiny");
   DiffusionPolicy policy(c, 3, false);
   policy.set_inference_precision(InferencePrecision::kBFloat16);
@@ -194,7 +196,7 @@ TEST(FastPaths, EmaAndRawWeightsKeepTheirOwnFastDenoiser) {
 }
 
 TEST(FastPaths, BFloat16BatchOneSamplingUsesItWhereTheWeightsAreMany) {
-  if (!nn::have_bf16_gemm()) GTEST_SKIP() << "no oneDNN bf16 matmul here (built without libdnnl-dev, or a CPU without AVX-512)";
+  if (!nn::have_bf16_gemm()) GTEST_SKIP() << kNoBf16;
   PolicyConfig c = small_config("medium");  // 64,128,256: middle blocks of 256 x 1280 weights
   DiffusionPolicy policy(c, 4, false);
   const Vec o = Vec::Constant(c.obs_dim, 0.3f);

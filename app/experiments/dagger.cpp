@@ -106,8 +106,9 @@ DaggerRunResult run_dagger(const ExperimentConfig& config, const DaggerRunOption
       result.iteration_threshold_s.push_back(r.threshold_s);
     }
     result.resumed_from_update = session.updates();
-    if (!o.quiet) fmt::print(stderr, "resuming {} after update {} (episode {})\n", o.out, session.updates(), session.episode());
-    else if (!o.label.empty()) fmt::print(stderr, "{} resumes after update {} (episode {})\n", o.label, session.updates(), session.episode());
+    if (!o.quiet || !o.label.empty())
+      fmt::print(stderr, "{}resuming {} after update {} (episode {})\n", o.label.empty() ? "" : o.label + " ", o.out, session.updates(),
+                 session.episode());
   }
   // After an update: everything continuing needs, in a folder of its own, then latest.json pointing at
   // it (a run killed while saving keeps the previous point), then the older points go.
@@ -156,13 +157,13 @@ DaggerRunResult run_dagger(const ExperimentConfig& config, const DaggerRunOption
       const std::string dir = o.out + "/checkpoints/update_" + std::to_string(session.updates());
       make_dirs(dir);
       method->save(dir);
-      if (!o.quiet)
-        fmt::print(stderr, "update {}: {} pairs, train {:.1f} s, threshold {:.4g} set in {:.1f} s\n", session.updates(), r.pairs,
-                   r.train_s, r.threshold, r.threshold_s);
-      else if (!o.label.empty())  // a long run's only sign of life in eval's cell logs
-        fmt::print(stderr, "{} update {}: {}/{} demonstrations ({} interventions) in {} episodes; train {:.0f} s, threshold {:.0f} s\n",
-                   o.label, session.updates(), session.expert_demos(), config.dagger.final_demos, session.interventions(),
-                   session.episode(), r.train_s, r.threshold_s);
+      // One line per update: alone on an interactive run, after the label in eval's cell logs (there it is a
+      // long run's only sign of life), nothing on a quiet unlabelled one.
+      if (!o.quiet || !o.label.empty())
+        fmt::print(stderr, "{}update {}: {}/{} demonstrations ({} interventions) in {} episodes, {} pairs; train {:.1f} s, "
+                   "threshold {:.4g} set in {:.1f} s\n",
+                   o.label.empty() ? "" : o.label + " ", session.updates(), session.expert_demos(), config.dagger.final_demos,
+                   session.interventions(), session.episode(), r.pairs, r.train_s, r.threshold, r.threshold_s);
       if (!session.done()) {
         save_resume_point();
         if (session.updates() == o.stop_after_update) {
