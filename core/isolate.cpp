@@ -3,9 +3,12 @@
 #include <poll.h>
 #include <signal.h>
 #include <string.h>
+#include <sys/mman.h>
+#include <sys/socket.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <atomic>
 #include <cerrno>
 #include <cstdint>
@@ -29,6 +32,7 @@ namespace dd {
 namespace {
 
 std::atomic<int> g_crashed{0};
+std::atomic<int> g_started{0};
 
 // In the child: die plainly on a crash, so that only the parent reports (a fuzzer's or a sanitizer's
 // crash handler would otherwise treat the child's death as the whole program's).
@@ -54,6 +58,7 @@ bool write_all(int fd, const char* p, size_t n) {
 }  // namespace
 
 int children_crashed() { return g_crashed.load(); }
+int children_started() { return g_started.load(); }
 
 std::string read_in_child(const std::string& path, const std::string& library, const std::function<std::string()>& read) {
   // tests/fuzz/run.sh --deep: in process, so that the fuzzer sees the reading code's coverage (and
@@ -179,6 +184,7 @@ std::vector<std::string> run_in_children(int n, int concurrent, const std::strin
       ::_exit(sent ? 0 : 3);
     }
     ::close(fds[1]);
+    ++g_started;
     Child c;
     c.job = i;
     c.pid = pid;
@@ -237,6 +243,101 @@ std::vector<std::string> run_in_children(int n, int concurrent, const std::strin
     }
   }
   return results;
+}
+
+ChildWorker::ChildWorker(const std::string& what, size_t shared_bytes, std::function<void(char*)> task)
+    : what_(what), bytes_(std::max<size_t>(shared_bytes, 1)) {
+  void* m = ::mmap(nullptr, bytes_, PROT_READ | PROT_WRITE, MAP_SHARED | MAP_ANONYMOUS, -1, 0);
+  if (m == MAP_FAILED) throw Error(what_ + ": could not map " + std::to_string(bytes_) + " bytes of shared memory: " + strerror(errno));
+  shared_ = static_cast<char*>(m);
+  // one socket pair, both ways: the parent's send() to a dead child fails with EPIPE instead of
+  // raising SIGPIPE
+  int fds[2];
+  if (::socketpair(AF_UNIX, SOCK_STREAM, 0, fds) != 0) {
+    ::munmap(shared_, bytes_);
+    throw Error(what_ + ": could not create a socket pair: " + strerror(errno));
+  }
+  const pid_t pid = ::fork();
+  if (pid < 0) {
+    for (const int fd : fds) ::close(fd);
+    ::munmap(shared_, bytes_);
+    throw Error(what_ + ": could not start a child process: " + strerror(errno));
+  }
+  if (pid == 0) {  // the child: a run of the task per byte from the parent, an answer frame after each
+    ::close(fds[0]);
+    child_setup();
+    char go = 0;
+    for (;;) {
+      ssize_t r;
+      while ((r = ::read(fds[1], &go, 1)) < 0 && errno == EINTR) {
+      }
+      if (r != 1) ::_exit(0);  // the parent closed its end (or is gone)
+      bool sent = false;
+      try {
+        task(shared_);
+        sent = write_frame(fds[1], 'O', "");
+      } catch (const std::exception& e) {
+        sent = write_frame(fds[1], 'E', e.what());
+      } catch (...) {
+        sent = write_frame(fds[1], 'E', "unknown error");
+      }
+      if (!sent) ::_exit(3);
+    }
+  }
+  ::close(fds[1]);
+  ++g_started;
+  fd_ = fds[0];
+  pid_ = pid;
+}
+
+ChildWorker::~ChildWorker() {
+  if (fd_ >= 0) ::close(fd_);
+  if (pid_ > 0) {
+    // Between runs the child only waits for the next: nothing of its own to lose. Killed rather than
+    // left to see its socket close, which it would not when a child forked later holds a copy.
+    ::kill(pid_, SIGKILL);
+    int status = 0;
+    while (::waitpid(pid_, &status, 0) < 0 && errno == EINTR) {
+    }
+  }
+  if (shared_) ::munmap(shared_, bytes_);
+}
+
+void ChildWorker::start() {
+  if (dead_) throw Error(what_ + ": its child process has died");
+  const char go = 'G';
+  ssize_t w;
+  while ((w = ::send(fd_, &go, 1, MSG_NOSIGNAL)) < 0 && errno == EINTR) {
+  }
+  if (w != 1) {
+    dead_ = true;
+    throw Error(what_ + ": its child process has died (the pipe to it is closed)");
+  }
+}
+
+void ChildWorker::wait() {
+  if (dead_) throw Error(what_ + ": its child process has died");
+  std::string frame;
+  char buf[4096];
+  for (;;) {
+    if (frame.size() >= 5) {
+      uint32_t size = 0;
+      std::memcpy(&size, &frame[1], 4);
+      if (frame.size() - 5 >= size) break;
+    }
+    const ssize_t r = ::read(fd_, buf, sizeof buf);
+    if (r < 0 && errno == EINTR) continue;
+    if (r <= 0) {
+      dead_ = true;
+      int status = 0;
+      while (::waitpid(pid_, &status, 0) < 0 && errno == EINTR) {
+      }
+      pid_ = -1;
+      throw Error(what_ + ": its child process died (" + describe_exit(status) + ")");
+    }
+    frame.append(buf, static_cast<size_t>(r));
+  }
+  if (frame[0] != 'O') throw Error(what_ + ": " + frame.substr(5));
 }
 
 }  // namespace dd

@@ -31,6 +31,9 @@ std::string read_in_child(const std::string& path, const std::string& library, c
 /// Inputs whose reading crashed a child so far in this process.
 int children_crashed();
 
+/// Child processes started so far in this process (run_in_children, ChildWorker), for tests.
+int children_started();
+
 /// What a job in a child process calls to send a message to the parent while it runs (progress).
 using ReportFn = std::function<void(const std::string& message)>;
 
@@ -45,6 +48,38 @@ using ReportFn = std::function<void(const std::string& message)>;
 std::vector<std::string> run_in_children(int n, int concurrent, const std::string& what,
                                          const std::function<std::string(int, const ReportFn&)>& job,
                                          const std::function<void(int, const std::string&)>& on_report = {});
+
+/// A forked copy of this process that runs `task` each time the parent asks, on one thread, with
+/// `shared_bytes` of memory mapped into both processes (each sees the other's writes): work split
+/// between two processes step by step, such as half of each training minibatch (core/trainer.cpp).
+/// The parent fills shared(), calls start(), does its own part and then wait(); the child's task
+/// reads and writes only shared() to communicate. Made from one thread, outside any parallel region.
+class ChildWorker {
+ public:
+  /// Throws Error("<what>: ...") when the memory cannot be mapped or the process not started.
+  ChildWorker(const std::string& what, size_t shared_bytes, std::function<void(char* shared)> task);
+  /// Ends the child (killed: between runs it holds nothing of its own) and waits for it.
+  ~ChildWorker();
+  ChildWorker(const ChildWorker&) = delete;
+  ChildWorker& operator=(const ChildWorker&) = delete;
+
+  char* shared() const { return shared_; }
+  /// The child's process id (-1 once it has died).
+  int pid() const { return pid_; }
+  /// The child begins a run of its task.
+  void start();
+  /// Waits for the run start() began. Throws Error("<what>: ...") with the task's message when it threw,
+  /// or when the child died (then every later start() and wait() throws too).
+  void wait();
+
+ private:
+  std::string what_;
+  char* shared_ = nullptr;
+  size_t bytes_ = 0;
+  int fd_ = -1;  // this end of the socket pair to the child
+  int pid_ = -1;
+  bool dead_ = false;
+};
 
 /// What a child process sends back (read_in_child, run_in_children), as bytes and back again:
 /// numbers, arrays, strings and matrices, in the order they were put.

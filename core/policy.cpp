@@ -4,9 +4,13 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
+#include <functional>
 
 #include "core/chunks.h"
 #include "core/gate.h"
+#include "core/isolate.h"
+#include "core/runtime.h"
 #include "core/nn/policy_impl.h"
 #include "core/nn/bf16_gemm.h"
 #include "core/nn/fast_unet.h"
@@ -24,6 +28,78 @@ template <class Fn>
 void for_each_block(int64_t n, int rows_per_pair, Fn&& fn) {
   const int64_t per_pass = std::max<int64_t>(1, kRowsPerPass / rows_per_pair);
   for (int64_t start = 0; start < n; start += per_pass) fn(start, std::min<int64_t>(per_pass, n - start));
+}
+
+// Scores the pairs [0, n) block by block, as for_each_block: `score(start, len, gen)` returns
+// `per_pair` floats a pair, drawing its noise from `gen`; `skip(len, gen)` makes the same draws and
+// nothing else. Returns the floats of every pair in order, and leaves `gen` where scoring every block
+// in turn would. With split_in_two_processes(), two one-thread children score alternate blocks, each
+// skipping the other's, so every block sees the noise it would see here (the numbers of a --threads
+// 1 run); `progress(pairs done, last value)` reports as blocks finish.
+template <class Score, class Skip>
+std::vector<float> score_blocks(int64_t n, int rows_per_pair, int per_pair, torch::Generator& gen, Score&& score, Skip&& skip,
+                                const std::function<void(int64_t, float)>& progress) {
+  const int64_t per_pass = std::max<int64_t>(1, kRowsPerPass / rows_per_pair), blocks = (n + per_pass - 1) / per_pass;
+  std::vector<float> out;
+  out.reserve(static_cast<size_t>(n * per_pair));
+  if (blocks < 4 || !split_in_two_processes()) {
+    for_each_block(n, rows_per_pair, [&](int64_t start, int64_t len) {
+      const std::vector<float> v = score(start, len, gen);
+      out.insert(out.end(), v.begin(), v.end());
+      if (progress) progress(start + len, out.back());
+    });
+    return out;
+  }
+  const torch::Tensor start_state = gen.get_state();
+  auto job = [&](int j, const ReportFn& report) {
+    torch::Generator g = make_generator(0);
+    g.set_state(start_state);
+    Bytes b;
+    for_each_block(n, rows_per_pair, [&](int64_t start, int64_t len) {
+      if ((start / per_pass) % 2 != j) {
+        skip(len, g);
+        return;
+      }
+      const std::vector<float> v = score(start, len, g);
+      b.out.append(reinterpret_cast<const char*>(v.data()), v.size() * sizeof(float));
+      report(fmt::format("{} {}", len, v.back()));
+    });
+    return std::move(b.out);
+  };
+  int64_t done = 0;
+  auto on_report = [&](int, const std::string& message) {
+    long long len = 0;
+    float last = 0;
+    if (std::sscanf(message.c_str(), "%lld %f", &len, &last) != 2) return;
+    done += len;
+    if (progress) progress(std::min(done, n), last);
+  };
+  const std::vector<std::string> parts = run_in_children(2, 2, "scoring training pairs", job, on_report);
+  size_t at[2] = {0, 0};
+  for_each_block(n, rows_per_pair, [&](int64_t start, int64_t len) {
+    const int j = static_cast<int>((start / per_pass) % 2);
+    const size_t bytes = static_cast<size_t>(len * per_pair) * sizeof(float);
+    if (parts[static_cast<size_t>(j)].size() < at[j] + bytes) throw Error("scoring training pairs: a child process sent too few values");
+    const auto* p = reinterpret_cast<const float*>(parts[static_cast<size_t>(j)].data() + at[j]);
+    out.insert(out.end(), p, p + len * per_pair);
+    at[j] += bytes;
+    skip(len, gen);
+  });
+  return out;
+}
+
+// The expected losses of the pairs (obs, chunks), n_samples rows each, in score_blocks' blocks.
+std::vector<float> pair_losses(const DiffusionPolicy::Impl& impl, const torch::Tensor& obs, const torch::Tensor& chunks,
+                               int n_samples, torch::Generator& gen, const std::function<void(int64_t, float)>& progress) {
+  const int64_t noise_per_pair = static_cast<int64_t>(n_samples) * chunks.size(1) * chunks.size(2);
+  return score_blocks(
+      obs.size(0), n_samples, 1, gen,
+      [&](int64_t start, int64_t len, torch::Generator& g) {
+        const torch::Tensor l = impl.expected_loss(obs.narrow(0, start, len), chunks.narrow(0, start, len), n_samples, g);
+        const float* p = l.data_ptr<float>();
+        return std::vector<float>(p, p + len);
+      },
+      [&](int64_t len, torch::Generator& g) { torch::randn({len * noise_per_pair}, g); }, progress);
 }
 
 torch::Tensor to_tensor(const Mat& m) {
@@ -349,15 +425,9 @@ std::vector<float> DiffusionPolicy::expected_losses(const ChunkDataset& data, ui
   torch::Generator gen = make_generator(seed);
   const torch::Tensor obs = impl_->obs_tensor(data.obs);
   const torch::Tensor chunks = impl_->chunk_tensor(data.obs, data.chunks);
-  std::vector<float> out;
-  out.reserve(static_cast<size_t>(data.size()));
-  for_each_block(data.size(), n_samples, [&](int64_t start, int64_t len) {
-    const torch::Tensor l = impl_->expected_loss(obs.narrow(0, start, len), chunks.narrow(0, start, len), n_samples, gen);
-    const float* p = l.data_ptr<float>();
-    out.insert(out.end(), p, p + len);
-    if (progress) progress(static_cast<int>(start + len), data.size(), out.back());
+  return pair_losses(*impl_, obs, chunks, n_samples, gen, [&](int64_t done, float last) {
+    if (progress) progress(static_cast<int>(done), data.size(), last);
   });
-  return out;
 }
 
 LossQuantile DiffusionPolicy::loss_quantile(const ChunkDataset& data, double alpha, uint64_t seed, int n_samples,
@@ -381,17 +451,28 @@ LossQuantile DiffusionPolicy::loss_quantile(const ChunkDataset& data, double alp
   const auto n = static_cast<size_t>(data.size());
   const int64_t k = m / T;  // rows per timestep
   std::vector<float> screened(n), bound(n);  // screening mean, and mean + z standard errors
-  for_each_block(data.size(), m, [&](int64_t start, int64_t len) {
-    // (len, m) -> (len, k, T): row j * T + t has timestep t
-    const torch::Tensor rows = impl_->row_losses(obs.narrow(0, start, len), chunks.narrow(0, start, len), m, gen).view({len, k, T});
-    const torch::Tensor mean = rows.mean({1, 2});
-    // stratified estimate: var(mean) = sum_t var_t / k / T^2
-    const torch::Tensor se = (rows.var(1, /*unbiased=*/true).sum(1) / (k * T * T)).sqrt();
-    const torch::Tensor hi = mean + LossQuantile::kScreenZ * se;
-    std::copy_n(mean.data_ptr<float>(), len, screened.begin() + start);
-    std::copy_n(hi.data_ptr<float>(), len, bound.begin() + start);
-    if (progress) progress(static_cast<int>(start + len), 2 * data.size(), screened[static_cast<size_t>(start + len - 1)]);
-  });
+  const int64_t noise_per_pair = static_cast<int64_t>(m) * chunks.size(1) * chunks.size(2);
+  const std::vector<float> screening = score_blocks(
+      data.size(), m, 2, gen,
+      [&](int64_t start, int64_t len, torch::Generator& g) {
+        // (len, m) -> (len, k, T): row j * T + t has timestep t
+        const torch::Tensor rows = impl_->row_losses(obs.narrow(0, start, len), chunks.narrow(0, start, len), m, g).view({len, k, T});
+        const torch::Tensor mean = rows.mean({1, 2});
+        // stratified estimate: var(mean) = sum_t var_t / k / T^2
+        const torch::Tensor se = (rows.var(1, /*unbiased=*/true).sum(1) / (k * T * T)).sqrt();
+        const torch::Tensor hi = mean + LossQuantile::kScreenZ * se;
+        const torch::Tensor both = torch::stack({hi, mean}, 1).contiguous();  // (bound, mean) a pair
+        const float* p = both.data_ptr<float>();
+        return std::vector<float>(p, p + 2 * len);
+      },
+      [&](int64_t len, torch::Generator& g) { torch::randn({len * noise_per_pair}, g); },
+      [&](int64_t done, float last_mean) {
+        if (progress) progress(static_cast<int>(done), 2 * data.size(), last_mean);
+      });
+  for (size_t i = 0; i < n; ++i) {
+    bound[i] = screening[2 * i];
+    screened[i] = screening[2 * i + 1];
+  }
   // Refine every pair that could lie above the threshold with the full n_samples rows; repeat while
   // the threshold moves below a pair's screening bound. The threshold is then always a refined
   // value, and every pair left unrefined lies below it (by kScreenZ standard errors), so the order
@@ -406,17 +487,15 @@ LossQuantile DiffusionPolicy::loss_quantile(const ChunkDataset& data, double alp
     if (todo.empty()) break;
     const torch::Tensor idx = torch::tensor(todo, torch::kInt64);
     const torch::Tensor o = obs.index_select(0, idx), c = chunks.index_select(0, idx);
-    for_each_block(idx.size(0), n_samples, [&](int64_t start, int64_t len) {
-      const torch::Tensor l = impl_->expected_loss(o.narrow(0, start, len), c.narrow(0, start, len), n_samples, gen);
-      const float* lp = l.data_ptr<float>();
-      for (int64_t j = 0; j < len; ++j) {
-        const auto i = static_cast<size_t>(todo[static_cast<size_t>(start + j)]);
-        value[i] = lp[j];
-        refined[i] = 1;
-      }
-      q.refined += static_cast<int>(len);
-      if (progress) progress(std::min(2 * data.size() - 1, data.size() + q.refined), 2 * data.size(), value[static_cast<size_t>(todo[static_cast<size_t>(start)])]);
+    const int refined_before = q.refined;
+    const std::vector<float> l = pair_losses(*impl_, o, c, n_samples, gen, [&](int64_t done, float last) {
+      if (progress) progress(std::min(2 * data.size() - 1, data.size() + refined_before + static_cast<int>(done)), 2 * data.size(), last);
     });
+    for (size_t j = 0; j < todo.size(); ++j) {
+      value[static_cast<size_t>(todo[j])] = l[j];
+      refined[static_cast<size_t>(todo[j])] = 1;
+    }
+    q.refined += static_cast<int>(todo.size());
     q.threshold = quantile(value, alpha);
   }
   if (progress) progress(2 * data.size(), 2 * data.size(), q.threshold);

@@ -3,6 +3,7 @@
 #include <ATen/Parallel.h>
 
 #include <algorithm>
+#include <atomic>
 #include <cstdlib>
 #include <thread>
 
@@ -19,5 +20,13 @@ int set_num_threads(int n) {
 }
 
 int num_threads() { return at::get_num_threads(); }
+
+namespace {
+std::atomic<bool> g_data_parallel{true};
+}
+
+void set_data_parallel(bool on) { g_data_parallel = on; }
+bool data_parallel() { return g_data_parallel; }
+bool split_in_two_processes() { return g_data_parallel && at::get_num_threads() >= 2 && !at::in_parallel_region(); }
 
 }  // namespace dd

@@ -10,4 +10,13 @@ int set_num_threads(int n = 0);
 /// The number of intra-op threads libtorch uses now.
 int num_threads();
 
+/// Work that splits in two (a training step's minibatch, a data set's pairs when setting a threshold)
+/// runs in two processes of one thread each when this process has two threads or more (the default,
+/// on), or in this process's threads (off). A step of libtorch operators uses a second thread
+/// poorly; a second process, nearly fully. Both give the same numbers up to float rounding.
+void set_data_parallel(bool on);
+bool data_parallel();
+/// Whether to split now: data_parallel(), two threads or more, and not inside a parallel region.
+bool split_in_two_processes();
+
 }  // namespace dd

@@ -6,10 +6,13 @@
 #include <filesystem>
 
 #include <ATen/Parallel.h>
+#include <spdlog/spdlog.h>
 
 #include "core/chunks.h"
+#include "core/isolate.h"
 #include "core/nn/archive_io.h"
 #include "core/nn/policy_impl.h"
+#include "core/runtime.h"
 
 namespace dd {
 
@@ -56,6 +59,47 @@ void adamw(float* p, const float* g, float* m, float* v, int64_t n, float clip, 
 
 void set_fused_optimizer(bool on) { fused_optimizer = on; }
 
+namespace {
+// OpenMP's pool size is per thread: this one's, for a scope.
+extern "C" void omp_set_num_threads(int) __attribute__((weak));
+extern "C" int omp_get_max_threads() __attribute__((weak));
+class OneThread {
+ public:
+  OneThread() : before_(at::get_num_threads()) {
+    if (omp_set_num_threads) omp_set_num_threads(1);
+  }
+  ~OneThread() {
+    if (omp_set_num_threads) omp_set_num_threads(before_);
+  }
+  OneThread(const OneThread&) = delete;
+  OneThread& operator=(const OneThread&) = delete;
+
+ private:
+  int before_;
+};
+
+// Offsets into the memory shared with the data-parallel child, each 64-byte aligned.
+struct SharedLayout {
+  size_t params, grad, loss, t, x, target, obs, bytes;
+  SharedLayout(int64_t n, int64_t rows, int64_t chunk, int64_t obs_dim) {
+    size_t at = 0;
+    auto take = [&](size_t b) {
+      const size_t o = at;
+      at += (b + 63) / 64 * 64;
+      return o;
+    };
+    params = take(n * sizeof(float));
+    grad = take(n * sizeof(float));
+    loss = take(sizeof(double));
+    t = take(rows * sizeof(int64_t));
+    x = take(rows * chunk * sizeof(float));
+    target = take(rows * chunk * sizeof(float));
+    obs = take(rows * obs_dim * sizeof(float));
+    bytes = at;
+  }
+};
+}  // namespace
+
 struct Trainer::State {
   State(DiffusionPolicy& p, const TrainConfig& c)
       : impl(p.impl()),
@@ -74,6 +118,51 @@ struct Trainer::State {
   torch::Tensor flat, flat_grad, flat_ema, exp_avg, exp_avg_sq;
   torch::Tensor obs, chunks;  // normalised training pairs
   int step = 0;
+  // Data-parallel training (two threads or more, fused optimiser): a forked child computes the
+  // gradient of the minibatch's second half while this process computes the first's, one thread each.
+  std::unique_ptr<ChildWorker> worker;
+  std::unique_ptr<SharedLayout> layout;
+  int64_t half = 0;  // rows this process takes; the child takes batch_size - half
+
+  // The summed squared error of rows [begin, begin + rows) over the whole minibatch's element count,
+  // backpropagated into flat_grad (added to what is there): the two halves' losses and gradients add
+  // up to the minibatch's mean-squared-error loss and its gradient.
+  float half_loss(const torch::Tensor& x, const torch::Tensor& t, const torch::Tensor& o, const torch::Tensor& target,
+                  int64_t elements) {
+    const torch::Tensor pred = impl.model->forward(x, t, o);
+    const torch::Tensor loss = (pred - target).pow(2).sum() / static_cast<double>(elements);
+    loss.backward();
+    return loss.item<float>();
+  }
+
+  // In the child: its half of the step whose inputs and weights the parent put in `shared`.
+  void child_half(char* shared) {
+    const SharedLayout& L = *layout;
+    const int64_t rows = config.batch_size - half, n = flat.numel();
+    const int64_t T = impl.config.horizon, A = impl.config.action_dim, O = impl.config.obs_dim;
+    torch::NoGradGuard no_grad_for_copies;
+    flat.copy_(torch::from_blob(shared + L.params, {n}));
+    flat_grad.zero_();
+    const auto f32 = torch::TensorOptions().dtype(torch::kFloat32);
+    const torch::Tensor x = torch::from_blob(shared + L.x, {rows, T, A}, f32);
+    const torch::Tensor t = torch::from_blob(shared + L.t, {rows}, torch::TensorOptions().dtype(torch::kInt64));
+    const torch::Tensor o = torch::from_blob(shared + L.obs, {rows, O}, f32);
+    const torch::Tensor target = torch::from_blob(shared + L.target, {rows, T, A}, f32);
+    float loss;
+    {
+      torch::AutoGradMode grad(true);
+      loss = half_loss(x, t, o, target, config.batch_size * T * A);
+    }
+    std::memcpy(shared + L.grad, flat_grad.data_ptr<float>(), n * sizeof(float));
+    *reinterpret_cast<double*>(shared + L.loss) = loss;
+  }
+
+  void start_worker() {
+    const int64_t T = impl.config.horizon, A = impl.config.action_dim, O = impl.config.obs_dim;
+    half = config.batch_size / 2;
+    layout = std::make_unique<SharedLayout>(flat.numel(), config.batch_size - half, T * A, O);
+    worker = std::make_unique<ChildWorker>("data-parallel training", layout->bytes, [this](char* shared) { child_half(shared); });
+  }
 
   // Moves the parameters, their gradients and the EMA weights into flat buffers (views keep the
   // modules' tensors valid) and starts the moments at zero.
@@ -126,6 +215,17 @@ Trainer::Trainer(DiffusionPolicy& policy, const ChunkDataset& data, const TrainC
   impl.copy_model_to_ema();
   state_->ema_params = impl.ema->parameters();
   if (state_->fused) state_->flatten();
+  // Two processes of one thread each get through a step faster than one process of two threads
+  // (a step's operators use a second thread poorly). Not inside a parallel region (ensemble members
+  // training side by side) and not for minibatches too small to split.
+  if (state_->fused && split_in_two_processes() && resolved.batch_size >= 16) {
+    try {
+      state_->start_worker();
+    } catch (const Error& e) {
+      spdlog::warn("{}; training in this process alone", e.what());
+      state_->worker.reset();
+    }
+  }
 }
 
 Trainer::~Trainer() {
@@ -133,6 +233,7 @@ Trainer::~Trainer() {
 }
 
 int Trainer::steps_done() const { return state_->step; }
+int Trainer::worker_pid() const { return state_->worker ? state_->worker->pid() : -1; }
 
 float Trainer::step() {
   State& s = *state_;
@@ -144,14 +245,49 @@ float Trainer::step() {
   const torch::Tensor x0 = s.chunks.index_select(0, idx);
   const torch::Tensor eps = torch::randn(x0.sizes(), s.gen, x0.options());
   const torch::Tensor t = torch::randint(T, {c.batch_size}, s.gen, torch::kInt64);
-  const torch::Tensor pred = impl.model->forward(impl.scheduler.add_noise(x0, eps, t), t, o);
-  const torch::Tensor loss = torch::mse_loss(pred, impl.scheduler.target(x0, eps, t));
-
   // EMA with warm-up: decay = 1 - (1 + step)^-power, capped; the first update copies.
   const double decay = std::min(c.ema_max_decay, 1.0 - std::pow(1.0 + s.step, -c.ema_power));
-  if (s.fused) {
+  float l = 0;
+  const bool split = s.worker != nullptr;
+  if (split) {
+    const torch::Tensor x = impl.scheduler.add_noise(x0, eps, t), target = impl.scheduler.target(x0, eps, t);
+    const int64_t h = s.half, rows = c.batch_size - h, elements = x.numel();
+    const SharedLayout& L = *s.layout;
+    char* shared = s.worker->shared();
+    auto put = [&](size_t offset, const torch::Tensor& v) {
+      const torch::Tensor part = v.narrow(0, h, rows).contiguous();
+      std::memcpy(shared + offset, part.data_ptr(), part.nbytes());
+    };
+    put(L.x, x);
+    put(L.t, t);
+    put(L.obs, o);
+    put(L.target, target);
+    std::memcpy(shared + L.params, s.flat.data_ptr<float>(), s.flat.nbytes());
+    s.worker->start();
     s.flat_grad.zero_();
-    loss.backward();
+    {
+      OneThread one;  // the child works on the other core
+      l = s.half_loss(x.narrow(0, 0, h), t.narrow(0, 0, h), o.narrow(0, 0, h), target.narrow(0, 0, h), elements);
+    }
+    try {
+      s.worker->wait();
+      torch::NoGradGuard no_grad;
+      s.flat_grad.add_(torch::from_blob(shared + L.grad, {s.flat_grad.numel()}));
+      l += static_cast<float>(*reinterpret_cast<const double*>(shared + L.loss));
+    } catch (const Error& e) {
+      // the child is gone: this step's second half here, and every later step in this process alone
+      spdlog::warn("{}; training goes on in this process alone", e.what());
+      s.worker.reset();
+      l += s.half_loss(x.narrow(0, h, rows), t.narrow(0, h, rows), o.narrow(0, h, rows), target.narrow(0, h, rows), elements);
+    }
+  }
+  const torch::Tensor loss = split ? torch::Tensor() : torch::mse_loss(impl.model->forward(impl.scheduler.add_noise(x0, eps, t), t, o),
+                                                                          impl.scheduler.target(x0, eps, t));
+  if (s.fused) {
+    if (!split) {
+      s.flat_grad.zero_();
+      loss.backward();
+    }
     float clip = 1;
     if (c.grad_clip > 0) {
       const double norm = s.flat_grad.norm().item<double>(), coef = c.grad_clip / (norm + 1e-6);
@@ -171,7 +307,7 @@ float Trainer::step() {
     torch::_foreach_mul_(s.ema_params, decay);
     torch::_foreach_add_(s.ema_params, s.params, 1.0 - decay);
   }
-  const float l = loss.item<float>();
+  if (loss.defined()) l = loss.item<float>();
   if (!std::isfinite(l)) throw Error("train: the loss became non-finite at step " + std::to_string(s.step));
   impl.weights_changed();
   ++s.step;

@@ -37,6 +37,10 @@ class Trainer {
   /// is not finite.
   float step();
   int steps_done() const;
+  /// The process id of the child that computes half of each step (core/runtime.h's
+  /// split_in_two_processes, with the fused optimiser), or -1 when this
+  /// process trains alone (one thread, a small minibatch, or the child died and it went on alone).
+  int worker_pid() const;
 
   /// Writes what continuing needs beyond the policy's own checkpoint (steps done, the optimiser's
   /// moments, the EMA weights, the minibatch generator) to `path`, atomically; with the policy saved

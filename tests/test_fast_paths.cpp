@@ -2,6 +2,7 @@
 // hoisted out of the denoising loop and the denoising passes on FastDenoiser, and the scheduler's
 // scalar step against its tensor formulas.
 #include <gtest/gtest.h>
+#include <signal.h>
 
 #include <filesystem>
 
@@ -9,6 +10,7 @@
 #include "core/chunks.h"
 #include "core/ensemble.h"
 #include "core/gate.h"
+#include "core/isolate.h"
 #include "core/synthetic.h"
 #include "core/trainer.h"
 #include "core/nn/bf16_gemm.h"
@@ -339,6 +341,108 @@ TEST(FastPaths, FusedOptimizerTrainsLikeTorchsAdamW) {
   set_fused_optimizer(true);
   for (size_t i = 0; i < losses[0].size(); ++i) EXPECT_NEAR(losses[1][i], losses[0][i], 1e-4 * (1 + losses[0][i])) << "step " << i;
   EXPECT_TRUE(samples[1].isApprox(samples[0], 1e-3f)) << "the EMA weights differ";
+}
+
+// With 2 threads a training step splits its minibatch with a forked child, one thread each: the same
+// losses and weights as one process, up to float rounding; and when the child dies, training goes
+// on in this process alone, still the same.
+TEST(FastPaths, DataParallelTrainingMatchesOneProcess) {
+  const int threads = num_threads();
+  set_num_threads(2);
+  const PolicyConfig c = small_config("tiny");
+  const ChunkDataset data = ChunkDataset::from_episodes(bimodal_episodes(10, 20, 5, 3, 2), 16);
+  TrainConfig t;
+  t.steps = 30;
+  t.batch_size = 33;  // odd: halves of 16 and 17 rows
+  t.warmup_steps = 5;
+  std::vector<std::vector<float>> losses;
+  std::vector<Mat> samples;
+  for (const int variant : {0, 1, 2}) {  // one process, two, two with the child killed at step 10
+    set_data_parallel(variant > 0);
+    DiffusionPolicy policy(c, 3, false);
+    {
+      Trainer trainer(policy, data, t);
+      if (variant == 0) EXPECT_EQ(trainer.worker_pid(), -1);
+      else ASSERT_GT(trainer.worker_pid(), 0) << "no child process at 2 threads";
+      losses.emplace_back();
+      for (int i = 0; i < t.steps; ++i) {
+        if (variant == 2 && i == 10) {
+          ::kill(trainer.worker_pid(), SIGKILL);
+          losses.back().push_back(trainer.step());
+          EXPECT_EQ(trainer.worker_pid(), -1) << "the dead child is still counted on";
+          continue;
+        }
+        losses.back().push_back(trainer.step());
+      }
+    }
+    samples.push_back(policy.sample(data.obs.row(0).transpose(), 9));
+  }
+  set_data_parallel(true);
+  set_num_threads(threads);
+  for (size_t v = 1; v < losses.size(); ++v) {
+    for (size_t i = 0; i < losses[0].size(); ++i)
+      EXPECT_NEAR(losses[v][i], losses[0][i], 1e-4 * (1 + losses[0][i])) << "variant " << v << " step " << i;
+    EXPECT_TRUE(samples[v].isApprox(samples[0], 1e-3f)) << "variant " << v << ": the EMA weights differ";
+  }
+  EXPECT_GT(losses[0].front(), losses[0].back()) << "the loss did not fall";
+}
+
+// A minibatch too small to split, or one thread, trains in this process.
+TEST(FastPaths, SmallMinibatchesAndOneThreadTrainAlone) {
+  const int threads = num_threads();
+  const PolicyConfig c = small_config("tiny");
+  const ChunkDataset data = ChunkDataset::from_episodes(bimodal_episodes(4, 20, 5, 3, 2), 16);
+  TrainConfig t;
+  t.steps = 2;
+  t.batch_size = 8;
+  set_num_threads(2);
+  DiffusionPolicy policy(c, 3, false);
+  EXPECT_EQ(Trainer(policy, data, t).worker_pid(), -1);
+  t.batch_size = 32;
+  set_num_threads(1);
+  EXPECT_EQ(Trainer(policy, data, t).worker_pid(), -1);
+  set_num_threads(threads);
+}
+
+// With 2 threads a data set's pairs are scored in two one-thread child processes, alternate blocks
+// each: the same expected losses and the same screened threshold as one process.
+TEST(FastPaths, ScoringSplitBetweenTwoProcessesMatchesOneProcess) {
+  const int threads = num_threads();
+  set_num_threads(2);
+  const PolicyConfig c = small_config("tiny");
+  const ChunkDataset data = ChunkDataset::from_episodes(bimodal_episodes(10, 20, 5, 3, 2), 16);
+  ASSERT_GE(data.size(), 4 * 32) << "too few pairs for the screening pass to split";
+  DiffusionPolicy policy(c, 3, false);
+  TrainConfig t;
+  t.steps = 20;
+  t.batch_size = 32;
+  train(policy, data, t);
+  const ChunkDataset some = data.subset(40, 1);  // 10 blocks of 4 pairs at 512 rows
+  std::vector<std::vector<float>> losses;
+  std::vector<LossQuantile> thresholds;
+  std::vector<int> children;
+  for (const bool split : {false, true}) {
+    set_data_parallel(split);
+    const int before = children_started();
+    int last_done = 0;
+    losses.push_back(policy.expected_losses(some, 7, 512, [&](int done, int total, double) {
+      EXPECT_GE(done, last_done) << "progress went back";
+      EXPECT_LE(done, total);
+      last_done = done;
+    }));
+    EXPECT_EQ(last_done, some.size());
+    thresholds.push_back(policy.loss_quantile(data, 0.9, 7, 512, true));
+    children.push_back(children_started() - before);
+  }
+  set_data_parallel(true);
+  set_num_threads(threads);
+  EXPECT_EQ(children[0], 0);
+  EXPECT_GE(children[1], 4) << "two children for the losses, two for the screening pass (and two a refining round)";
+  ASSERT_EQ(losses[0].size(), losses[1].size());
+  for (size_t i = 0; i < losses[0].size(); ++i) EXPECT_NEAR(losses[1][i], losses[0][i], 1e-4 * (1 + losses[0][i])) << "pair " << i;
+  EXPECT_NEAR(thresholds[1].threshold, thresholds[0].threshold, 1e-4 * (1 + thresholds[0].threshold));
+  EXPECT_EQ(thresholds[1].refined, thresholds[0].refined);
+  EXPECT_GT(thresholds[0].screen_samples, 0) << "the screening pass did not run";
 }
 
 }  // namespace dd

@@ -1,6 +1,7 @@
 // Where a training step's time goes: runs warm-up steps, then profiles a few with libtorch's
-// profiler and prints the self CPU time per operator (forward and backward), largest first.
-//   build/tests/bench/profile_train [down_dims=32,64,128] [T_p=32] [batch=128] [steps=20]
+// profiler and prints the self CPU time per operator (forward and backward), largest first. With
+// `loss` last, the same for one expected loss (the gate's score) over `batch` noise rows, N_b.
+//   build/tests/bench/profile_train [down_dims=32,64,128] [T_p=32] [batch=128] [steps=20] [train|loss]
 #include <torch/csrc/autograd/profiler_legacy.h>
 #include <torch/torch.h>
 
@@ -26,6 +27,11 @@ int main(int argc, char** argv) {
   }
   const int horizon = argc > 2 ? std::stoi(argv[2]) : 32, batch = argc > 3 ? std::stoi(argv[3]) : 128;
   const int steps = argc > 4 ? std::stoi(argv[4]) : 20;
+  const bool loss = argc > 5 && std::string(argv[5]) == "loss";
+  if (argc > 5 && !loss && std::string(argv[5]) != "train") {
+    std::fprintf(stderr, "profile_train: the fifth argument is train or loss, not %s\n", argv[5]);
+    return 2;
+  }
   const int threads = set_num_threads();
   if (std::getenv("DD_NO_MKLDNN")) at::globalContext().setUserEnabledMkldnn(false);  // libtorch's own convolutions, for comparison
   PolicyConfig c;
@@ -40,10 +46,17 @@ int main(int argc, char** argv) {
   t.steps = 1000000;
   Trainer trainer(policy, data, t);
   for (int i = 0; i < 5; ++i) trainer.step();
+  const Vec obs = data.obs.row(0).transpose();
+  const Mat chunk = data.chunk(0);
+  auto run = [&](int i) {
+    if (loss) policy.expected_loss(obs, chunk, static_cast<uint64_t>(i), batch);
+    else trainer.step();
+  };
+  for (int i = 0; i < 3; ++i) run(i);
   std::stringstream trace;
   {
     torch::autograd::profiler::RecordProfile profile(trace);
-    for (int i = 0; i < steps; ++i) trainer.step();
+    for (int i = 0; i < steps; ++i) run(i);
   }
   // Chrome trace events: {"name": ..., "ph": "X", "ts": ..., "dur": ...}; self time = duration minus
   // the durations of the events nested directly inside it (same thread).
@@ -82,8 +95,8 @@ int main(int argc, char** argv) {
   std::vector<std::pair<double, std::string>> rows;
   for (const auto& [name, us] : self) rows.emplace_back(us, name);
   std::sort(rows.rbegin(), rows.rend());
-  std::printf("down_dims %s T_p %d batch %d, %d threads: %.1f ms per step (profiled)\n", argc > 1 ? argv[1] : "32,64,128", horizon,
-              batch, threads, total / 1000.0 / steps);
+  std::printf("down_dims %s T_p %d %s %d, %d threads: %.1f ms per %s (profiled)\n", argc > 1 ? argv[1] : "32,64,128", horizon,
+              loss ? "N_b" : "batch", batch, threads, total / 1000.0 / steps, loss ? "expected loss" : "step");
   for (size_t i = 0; i < rows.size() && i < 25; ++i) {
     std::string from;
     for (const auto& [caller, n] : callers[rows[i].second]) from += (from.empty() ? "" : ", ") + caller + " x" + std::to_string(n / steps);
