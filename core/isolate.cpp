@@ -120,6 +120,19 @@ bool write_frame(int fd, char type, const std::string& payload) {
   return write_all(fd, frame.data(), frame.size());
 }
 
+// The next whole frame in `buffer` from `pos`: its type and payload, `pos` moved past it; false when
+// the frame there is not whole yet.
+bool next_frame(const std::string& buffer, size_t& pos, char& type, std::string& payload) {
+  if (buffer.size() - pos < 5) return false;
+  uint32_t size = 0;
+  std::memcpy(&size, &buffer[pos + 1], 4);
+  if (buffer.size() - pos - 5 < size) return false;
+  type = buffer[pos];
+  payload = buffer.substr(pos + 5, size);
+  pos += 5 + size;
+  return true;
+}
+
 std::string describe_exit(int status) {
   if (WIFSIGNALED(status)) return "signal " + std::to_string(WTERMSIG(status)) + " (" + strsignal(WTERMSIG(status)) + ")";
   return "exit status " + std::to_string(WEXITSTATUS(status));
@@ -211,13 +224,9 @@ std::vector<std::string> run_in_children(int n, int concurrent, const std::strin
         c.buffer.append(buf, static_cast<size_t>(r));
         // every whole frame in the buffer
         size_t pos = 0;
-        while (c.buffer.size() - pos >= 5) {
-          uint32_t size = 0;
-          std::memcpy(&size, &c.buffer[pos + 1], 4);
-          if (c.buffer.size() - pos - 5 < size) break;
-          const char type = c.buffer[pos];
-          std::string payload = c.buffer.substr(pos + 5, size);
-          pos += 5 + size;
+        char type = 0;
+        std::string payload;
+        while (next_frame(c.buffer, pos, type, payload)) {
           if (type == 'M') {
             if (on_report) on_report(c.job, payload);
           } else if (type == 'O') {
@@ -317,14 +326,9 @@ void ChildWorker::start() {
 
 void ChildWorker::wait() {
   if (dead_) throw Error(what_ + ": its child process has died");
-  std::string frame;
-  char buf[4096];
-  for (;;) {
-    if (frame.size() >= 5) {
-      uint32_t size = 0;
-      std::memcpy(&size, &frame[1], 4);
-      if (frame.size() - 5 >= size) break;
-    }
+  std::string buffer, payload;
+  char type = 0, buf[4096];
+  for (size_t pos = 0; !next_frame(buffer, pos, type, payload);) {
     const ssize_t r = ::read(fd_, buf, sizeof buf);
     if (r < 0 && errno == EINTR) continue;
     if (r <= 0) {
@@ -335,9 +339,9 @@ void ChildWorker::wait() {
       pid_ = -1;
       throw Error(what_ + ": its child process died (" + describe_exit(status) + ")");
     }
-    frame.append(buf, static_cast<size_t>(r));
+    buffer.append(buf, static_cast<size_t>(r));
   }
-  if (frame[0] != 'O') throw Error(what_ + ": " + frame.substr(5));
+  if (type != 'O') throw Error(what_ + ": " + payload);
 }
 
 }  // namespace dd

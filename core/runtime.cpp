@@ -26,7 +26,6 @@ std::atomic<bool> g_data_parallel{true};
 }
 
 void set_data_parallel(bool on) { g_data_parallel = on; }
-bool data_parallel() { return g_data_parallel; }
 bool split_in_two_processes() { return g_data_parallel && at::get_num_threads() >= 2 && !at::in_parallel_region(); }
 
 }  // namespace dd

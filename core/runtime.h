@@ -15,8 +15,7 @@ int num_threads();
 /// on), or in this process's threads (off). A step of libtorch operators uses a second thread
 /// poorly; a second process, nearly fully. Both give the same numbers up to float rounding.
 void set_data_parallel(bool on);
-bool data_parallel();
-/// Whether to split now: data_parallel(), two threads or more, and not inside a parallel region.
+/// Whether to split now: set_data_parallel on, two threads or more, and not inside a parallel region.
 bool split_in_two_processes();
 
 }  // namespace dd

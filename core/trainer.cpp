@@ -62,7 +62,6 @@ void set_fused_optimizer(bool on) { fused_optimizer = on; }
 namespace {
 // OpenMP's pool size is per thread: this one's, for a scope.
 extern "C" void omp_set_num_threads(int) __attribute__((weak));
-extern "C" int omp_get_max_threads() __attribute__((weak));
 class OneThread {
  public:
   OneThread() : before_(at::get_num_threads()) {

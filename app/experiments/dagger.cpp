@@ -68,6 +68,7 @@ DaggerRunResult run_dagger(const ExperimentConfig& config, const DaggerRunOption
   const std::string config_text = to_json_text(config) + "\n", resume_root = o.out + "/resume", log_path = o.out + "/queries.jsonl";
   // A resume point: out/resume/latest.json names the folder of the latest complete one.
   const nlohmann::json resume = read_resume_point(o.out, resume_root + "/latest.json", config, {"update", "log_bytes"});
+  const std::string prefix = o.label.empty() ? "" : o.label + " ";  // of the lines per update and on resuming
   if (resume.is_null() && fs::exists(result.dataset)) {
     throw Error(result.dataset + ": already exists; a run never mixes its data into an earlier run's (choose another --out)");
   }
@@ -107,7 +108,7 @@ DaggerRunResult run_dagger(const ExperimentConfig& config, const DaggerRunOption
     }
     result.resumed_from_update = session.updates();
     if (!o.quiet || !o.label.empty())
-      fmt::print(stderr, "{}resuming {} after update {} (episode {})\n", o.label.empty() ? "" : o.label + " ", o.out, session.updates(),
+      fmt::print(stderr, "{}resuming {} after update {} (episode {})\n", prefix, o.out, session.updates(),
                  session.episode());
   }
   // After an update: everything continuing needs, in a folder of its own, then latest.json pointing at
@@ -162,7 +163,7 @@ DaggerRunResult run_dagger(const ExperimentConfig& config, const DaggerRunOption
       if (!o.quiet || !o.label.empty())
         fmt::print(stderr, "{}update {}: {}/{} demonstrations ({} interventions) in {} episodes, {} pairs; train {:.1f} s, "
                    "threshold {:.4g} set in {:.1f} s\n",
-                   o.label.empty() ? "" : o.label + " ", session.updates(), session.expert_demos(), config.dagger.final_demos,
+                   prefix, session.updates(), session.expert_demos(), config.dagger.final_demos,
                    session.interventions(), session.episode(), r.pairs, r.train_s, r.threshold, r.threshold_s);
       if (!session.done()) {
         save_resume_point();
