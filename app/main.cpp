@@ -24,7 +24,11 @@ int main(int argc, char** argv) {
   app.require_subcommand(1);
   int threads = 0;
   bool verbose = false;
+  bool one_process = false;
   app.add_option("--threads", threads, "libtorch threads (default: $DD_THREADS or 2)");
+  app.add_flag("--one-process", one_process,
+               "with 2 threads or more, run each training step and threshold pass in this process's threads "
+               "instead of splitting it between two one-thread child processes (also $DD_ONE_PROCESS=1)");
   app.add_flag("-v,--verbose", verbose, "debug logging");
 
   std::map<CLI::App*, dd::app::Command> commands;
@@ -53,6 +57,7 @@ int main(int argc, char** argv) {
   spdlog::set_level(verbose ? spdlog::level::debug : spdlog::level::info);
   spdlog::set_pattern("%^[%L]%$ %v");
   dd::set_num_threads(threads);
+  dd::set_data_parallel_from(one_process);
   try {
     for (auto& [sub, run] : commands)
       if (sub->parsed()) return run();

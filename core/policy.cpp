@@ -74,6 +74,7 @@ std::vector<float> score_blocks(int64_t n, int rows_per_pair, int per_pair, torc
     done += len;
     if (progress) progress(std::min(done, n), last);
   };
+  spdlog::debug("scoring {} training pairs in two child processes", n);
   const std::vector<std::string> parts = run_in_children(2, 2, "scoring training pairs", job, on_report);
   size_t at[2] = {0, 0};
   for_each_block(n, rows_per_pair, [&](int64_t start, int64_t len) {

@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <atomic>
 #include <cstdlib>
+#include <string_view>
 #include <thread>
 
 namespace dd {
@@ -26,6 +27,13 @@ std::atomic<bool> g_data_parallel{true};
 }
 
 void set_data_parallel(bool on) { g_data_parallel = on; }
+
+bool set_data_parallel_from(bool one_process) {
+  const char* env = std::getenv("DD_ONE_PROCESS");
+  const bool env_off = env && *env && std::string_view(env) != "0";
+  set_data_parallel(!one_process && !env_off);
+  return g_data_parallel;
+}
 bool split_in_two_processes() { return g_data_parallel && at::get_num_threads() >= 2 && !at::in_parallel_region(); }
 
 }  // namespace dd

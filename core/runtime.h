@@ -15,6 +15,9 @@ int num_threads();
 /// on), or in this process's threads (off). A step of libtorch operators uses a second thread
 /// poorly; a second process, nearly fully. Both give the same numbers up to float rounding.
 void set_data_parallel(bool on);
+/// The command line's choice: off when `one_process` is true or $DD_ONE_PROCESS is set to anything
+/// but "" or "0"; on otherwise. Returns the setting.
+bool set_data_parallel_from(bool one_process);
 /// Whether to split now: set_data_parallel on, two threads or more, and not inside a parallel region.
 bool split_in_two_processes();
 

@@ -220,6 +220,7 @@ Trainer::Trainer(DiffusionPolicy& policy, const ChunkDataset& data, const TrainC
   if (state_->fused && split_in_two_processes() && resolved.batch_size >= 16) {
     try {
       state_->start_worker();
+      spdlog::debug("training: each step's minibatch split with child process {}", state_->worker->pid());
     } catch (const Error& e) {
       spdlog::warn("{}; training in this process alone", e.what());
       state_->worker.reset();
