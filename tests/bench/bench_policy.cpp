@@ -14,6 +14,7 @@
 //   EnsembleTrain  one ensemble update (5 members x 20 steps, batch 128, T_p 32), members side by side
 //                 in child processes (the default); ...Threads: in threads; ...Serial: one after another
 //                 with both threads inside each
+//   TrainerStart  a Trainer made, one step, destroyed: the fork's cost per training run (...OneProcess: none)
 //   Threshold     the alpha-quantile of 400 pairs' expected losses, screened; ...AllRows: unscreened
 //   Sgemm         a large square sgemm through the same OpenBLAS: this machine's practical fp32
 //                 peak, the yardstick for the others (counter GFLOPS)
@@ -68,6 +69,22 @@ void TrainStep(benchmark::State& state, const PolicyConfig& config, bool torch_m
   for (auto _ : state) benchmark::DoNotOptimize(trainer.step());
   nn::set_fused_mish(true);
   set_fused_optimizer(true);
+  set_data_parallel(true);
+}
+
+// What a training run pays once for the two-process split: a Trainer made, its first step taken
+// (oneDNN's setup in both processes) and the trainer destroyed, with the child forked and killed
+// (two processes) or not (one). The difference is the fork's cost per DAgger update.
+void TrainerStart(benchmark::State& state, const PolicyConfig& config, bool data_parallel) {
+  set_data_parallel(data_parallel);
+  DiffusionPolicy policy(config, 0);
+  TrainConfig t;
+  t.batch_size = 256;
+  t.steps = 1000000;
+  for (auto _ : state) {
+    Trainer trainer(policy, bench_data(), t);
+    benchmark::DoNotOptimize(trainer.step());
+  }
   set_data_parallel(true);
 }
 
@@ -236,6 +253,8 @@ BENCHMARK_CAPTURE(ExpectedLoss, 32_64_128, kCpuDefault, kBf16)->Name("BM_Expecte
 BENCHMARK_CAPTURE(Decision, 32_64_128, kCpuDefault, false, kBf16)->Name("BM_DecisionBf16_32_64_128")->Unit(benchmark::kMillisecond);
 BENCHMARK_CAPTURE(TrainStep, 32_64_128, kCpuDefault, false)->Name("BM_TrainStep_32_64_128")->Unit(benchmark::kMillisecond)->UseRealTime();
 BENCHMARK_CAPTURE(TrainStep, 32_64_128, kCpuDefault, false, false, false)->Name("BM_TrainStepOneProcess_32_64_128")->Unit(benchmark::kMillisecond)->UseRealTime();
+BENCHMARK_CAPTURE(TrainerStart, 32_64_128, kCpuDefault, true)->Name("BM_TrainerStart_32_64_128")->Unit(benchmark::kMillisecond)->UseRealTime();
+BENCHMARK_CAPTURE(TrainerStart, 32_64_128, kCpuDefault, false)->Name("BM_TrainerStartOneProcess_32_64_128")->Unit(benchmark::kMillisecond)->UseRealTime();
 BENCHMARK_CAPTURE(TrainStep, 32_64_128, kCpuDefault, true)->Name("BM_TrainStepTorchMish_32_64_128")->Unit(benchmark::kMillisecond);
 BENCHMARK_CAPTURE(TrainStep, 32_64_128, kCpuDefault, false, true)->Name("BM_TrainStepTorchAdamW_32_64_128")->Unit(benchmark::kMillisecond);
 BENCHMARK_CAPTURE(Sample, 32_64_128, kCpuDefault, false)->Name("BM_Sample_32_64_128")->Unit(benchmark::kMillisecond);
