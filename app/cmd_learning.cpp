@@ -57,7 +57,11 @@ Command add_eval(CLI::App& app) {
                   "(1: one after another in this process, with --threads)")
       ->capture_default_str()
       ->check(CLI::Range(1, 64));
-  cmd->add_flag("--only-rq1", o->eval.only_rq1, "run only the RQ1 cells (the query rules on the shared policies) and print them; no report");
+  auto* only_rq1 = cmd->add_flag("--only-rq1", o->eval.only_rq1, "run only the RQ1 cells (the query rules on the shared policies) and print them; no report");
+  cmd->add_flag("--report", o->eval.report_only,
+                "run no cell: write the report from the cells finished so far (each row over the seeds it has) and list the "
+                "cells still to run; for an evaluation in progress, or one that another machine finishes")
+      ->excludes(only_rq1);
   cmd->add_option("--cell", o->eval.cell, "run only this cell, METHOD:SEED:rq1|rq2 (what --jobs starts)")->group("");
   return [o] {
     ExperimentConfig c = resolve_config(o->task, o->config);

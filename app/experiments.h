@@ -146,6 +146,7 @@ struct EvalOptions {
   int jobs = 1;         // cells run at a time, each in a process of its own with one thread (1: in this process)
   std::string cell;     // "METHOD:SEED:rq1|rq2": run only this cell (what --jobs gives each child process)
   bool only_rq1 = false;  // run only the RQ1 cells (with --jobs as well), print them, and write no report
+  bool report_only = false;  // run no cell: the report from the cells finished so far, the missing ones listed
   void apply_quick(ExperimentConfig& config);
 };
 

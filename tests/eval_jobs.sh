@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # `eval --jobs 2` runs the cells in child processes of one thread each and gives what one process with
 # one thread gives: the same RQ1 and RQ2 numbers, a log per cell, and a report. A cell that fails is
-# named with its log, and the finished cells are kept for the rerun.
+# named with its log, and the finished cells are kept for the rerun. `--report` writes a partial
+# report from the finished cells without running any.
 # Usage: tests/eval_jobs.sh BIN   (ctest runs it in the build's tests folder)
 set -euo pipefail
 bin=$1
@@ -43,6 +44,30 @@ done
 ls "$dir/rq1/cells" | grep -q rq2 && { echo "FAIL: --only-rq1 ran a DAgger cell"; exit 1; }
 [[ ! -e $dir/rq1/report.md ]] || { echo "FAIL: --only-rq1 wrote a report"; exit 1; }
 grep -q "RQ1 diff " "$dir/rq1.log" || { echo "FAIL: --only-rq1 did not print the RQ1 numbers"; cat "$dir/rq1.log"; exit 1; }
+# --report: a report from the finished cells (here RQ1 only), running none, the missing cells listed
+cells_before=$(ls "$dir/rq1/cells" | wc -l)
+"$bin" --threads 1 "${args[@]}" --seeds 2 --report --out "$dir/rq1" > "$dir/partial.log" 2>&1 || { cat "$dir/partial.log"; exit 1; }
+[[ $(ls "$dir/rq1/cells" | wc -l) == "$cells_before" ]] || { echo "FAIL: --report ran a cell"; exit 1; }
+grep -q "Partial report" "$dir/rq1/report.md" || { echo "FAIL: the report does not say it is partial"; exit 1; }
+grep -q "diff:0:rq2, thrifty:0:rq2, bc:0:rq2, diff:1:rq1, diff:1:rq2, thrifty:1:rq1, thrifty:1:rq2, bc:1:rq2" "$dir/rq1/report.md" ||
+  { echo "FAIL: the missing cells are not listed"; cat "$dir/rq1/report.md"; exit 1; }
+/usr/bin/python3 - "$dir/rq1" <<'PY' || exit 1
+import csv, json, sys
+d = sys.argv[1]
+rq1 = {r["method"]: r for r in csv.DictReader(open(d + "/rq1.csv"))}
+for m in ("diff", "thrifty"):
+    cell = json.load(open(f"{d}/cells/{m}_seed0_rq1.json"))
+    if [int(rq1[m][k]) for k in ("tp", "fp", "tn", "fn")] != [cell[k] for k in ("tp", "fp", "tn", "fn")] or rq1[m]["seeds"] != "1":
+        sys.exit(f"FAIL: --report's rq1.csv row {rq1[m]} is not the one finished cell {cell}")
+rq2 = {r["method"]: r for r in csv.DictReader(open(d + "/rq2.csv"))}
+if rq2["bc"]["success_rate"] != "nan" or rq2["bc"]["seeds"] != "0":
+    sys.exit(f"FAIL: a method without a finished RQ2 cell has {rq2['bc']}")
+PY
+# ... and it refuses a folder of another config, or none, naming the file
+if "$bin" eval --task nav2d --report --out "$dir/rq1" > "$dir/other.log" 2>&1; then echo "FAIL: --report read another config's cells"; exit 1; fi
+grep -q "rq1/config.json: --report writes the report of the evaluation whose config" "$dir/other.log" || { cat "$dir/other.log"; exit 1; }
+if "$bin" "${args[@]}" --report --out "$dir/none" > "$dir/none.log" 2>&1; then echo "FAIL: --report without an evaluation"; exit 1; fi
+grep -q "none/config.json: missing" "$dir/none.log" && [[ ! -e $dir/none ]] || { echo "FAIL: no clear error, or a folder made"; cat "$dir/none.log"; exit 1; }
 # an RQ1 cell stopped (kill -9) during its rollouts continues where it stopped: the method as saved,
 # the rollouts that ended kept, and the same numbers (compared rules included) as an unstopped cell
 cat > "$dir/cmp.yaml" <<'YAML'

@@ -295,14 +295,21 @@ std::vector<RolloutResult> read_rollouts(const std::string& path) {
 
 void run_eval(const ExperimentConfig& config, const EvalOptions& o) {
   config.validate();
-  make_dirs(o.out + "/cells");
+  if (!o.report_only) make_dirs(o.out + "/cells");
   // Every finished cell (RQ1, or RQ2 and RQ3, of one method and seed) is a file in out/cells; a
   // stopped evaluation rerun with the same config skips them, losing at most the cell in progress.
   const std::string config_text = to_json_text(config) + "\n";
-  if (fs::exists(o.out + "/config.json") && !stored_config_matches(o.out + "/config.json", config) && !fs::is_empty(o.out + "/cells"))
+  if (!o.report_only && fs::exists(o.out + "/config.json") && !stored_config_matches(o.out + "/config.json", config) &&
+      !fs::is_empty(o.out + "/cells"))
     throw Error(o.out + "/config.json: finished cells of another config are in " + o.out +
                 "/cells; remove the folder or choose another --out");
-  if (o.cell.empty()) {
+  if (o.report_only) {
+    // eval --report reads what the evaluation in this folder has finished; its config must be this one
+    if (!fs::exists(o.out + "/config.json")) throw Error(o.out + "/config.json: missing; --report needs the folder of an evaluation");
+    if (!stored_config_matches(o.out + "/config.json", config))
+      throw Error(o.out + "/config.json: --report writes the report of the evaluation whose config this file holds, and it holds another "
+                  "(give the same --task, --config and --quick as the evaluation)");
+  } else if (o.cell.empty()) {
     write_text(o.out + "/config.json", config_text);
   } else if (!stored_config_matches(o.out + "/config.json", config)) {
     // a cell's process (eval --jobs) runs in the folder its parent prepared, and only reads it
@@ -481,6 +488,31 @@ void run_eval(const ExperimentConfig& config, const EvalOptions& o) {
     return;
   }
 
+  // --report: the report from the finished cells alone; nothing runs.
+  if (o.report_only) {
+    std::vector<std::string> missing;
+    for (int s = 0; s < o.seeds; ++s)
+      for (const std::string& name : o.methods) {
+        EvalRow& row = rows[name];
+        const std::vector<EvalCell> cells = method_info(name).gated ? std::vector<EvalCell>{{name, s, true}, {name, s, false}}
+                                                                     : std::vector<EvalCell>{{name, s, false}};
+        for (const EvalCell& cell : cells) {
+          const std::string file = cell_file(cell.method, cell.seed, cell.rq1);
+          const auto j = finished(file, {file});
+          if (!j) {
+            missing.push_back(cell.id());
+          } else if (cell.rq1) {
+            row.add_rq1(*j, (*j)["success"].get<double>(), s);
+            if (method_info(name).learns_risk) row.risk_data.push_back((*j)["risk_data_s"].get<double>());
+          } else {
+            row.add_rq2(*j, s);
+          }
+        }
+      }
+    write_eval_report(config, o, rows, 0, 0, missing);
+    return;
+  }
+
   // --jobs N: the unfinished cells, the longest first, N at a time, each in a process of its own.
   std::set<std::string> ran_here;  // cells finished by this run's child processes
   if (o.jobs > 1) {
@@ -504,9 +536,7 @@ void run_eval(const ExperimentConfig& config, const EvalOptions& o) {
           run_rq1_cell(name, s);
           j = finished(file, {file});
         }
-        row.add_rq1(*j, (*j)["success"].get<double>());
-        if (j->contains("compare"))  // method.compare_scores: the other rules judged on the same rollouts
-          for (const auto& [rule, p] : (*j)["compare"].items()) row.compared[rule].add_rq1(p, (*j)["success"].get<double>());
+        row.add_rq1(*j, (*j)["success"].get<double>(), s);
         if (method_info(name).learns_risk) row.risk_data.push_back((*j)["risk_data_s"].get<double>());
       }
       const std::string file = cell_file(name, s, false);
@@ -515,13 +545,7 @@ void run_eval(const ExperimentConfig& config, const EvalOptions& o) {
         run_rq2_cell(name, s);
         j = finished(file, {file});
       }
-      row.success.push_back((*j)["success"].get<double>());
-      row.train.push_back((*j)["train_s"].get<double>());
-      row.threshold.push_back((*j)["threshold_s"].get<double>());
-      row.inference.push_back((*j)["inference_s"].get<double>());
-      row.last_train.push_back((*j)["last_train_s"].get<double>());
-      row.last_threshold.push_back((*j)["last_threshold_s"].get<double>());
-      row.last_inference.push_back((*j)["last_inference_s"].get<double>());
+      row.add_rq2(*j, s);
     }
   }
 

@@ -33,6 +33,23 @@ std::string pm(const std::vector<double>& v) {
 
 std::string csv_num(double v) { return std::isfinite(v) ? fmt::format("{:.3f}", v) : "nan"; }
 
+// "0.92 (seed 0), 0.88 (seed 1)": each seed's value.
+std::string per_seed(const std::vector<double>& v, const std::vector<int>& seeds) {
+  std::vector<std::string> parts;
+  for (size_t i = 0; i < v.size() && i < seeds.size(); ++i) parts.push_back(fmt::format("{:.2f} (seed {})", v[i], seeds[i]));
+  return parts.empty() ? "-" : fmt::format("{}", fmt::join(parts, ", "));
+}
+
+// "0, 1, 2", or "-" for none.
+std::string seed_list(const std::vector<int>& seeds) { return seeds.empty() ? "-" : fmt::format("{}", fmt::join(seeds, ", ")); }
+
+// A sum of means, or "n/a" when any is undefined (a method without finished cells).
+std::string total(std::initializer_list<double> parts) {
+  double t = 0;
+  for (double x : parts) t += x;
+  return std::isfinite(t) ? fmt::format("{:.2f}", t) : "n/a";
+}
+
 // Table I's and rq1.csv's rows of a method: its own rule, then the rules it was compared with.
 std::vector<std::pair<std::string, const EvalRow*>> rq1_rows(const std::string& name, const EvalRow& row) {
   std::vector<std::pair<std::string, const EvalRow*>> out;
@@ -49,7 +66,7 @@ std::string rq1_title(const std::string& name, const std::string& row_name) {
 
 }  // namespace
 
-void EvalRow::add_rq1(const nlohmann::json& cell, double rollout_success) {
+void EvalRow::add_rq1(const nlohmann::json& cell, double rollout_success, int seed) {
   auto rate = [&](const char* k) { return cell.at(k).is_number() ? cell.at(k).get<double>() : NAN; };
   tpr.push_back(rate("tpr"));
   tnr.push_back(rate("tnr"));
@@ -57,10 +74,24 @@ void EvalRow::add_rq1(const nlohmann::json& cell, double rollout_success) {
   acc.push_back(rate("acc"));
   tp += cell.at("tp").get<int>(), fp += cell.at("fp").get<int>(), tn += cell.at("tn").get<int>(), fn += cell.at("fn").get<int>();
   rq1_success.push_back(rollout_success);
+  rq1_seeds.push_back(seed);
+  if (cell.contains("compare"))  // method.compare_scores: the other rules judged on the same rollouts
+    for (const auto& [rule, p] : cell["compare"].items()) compared[rule].add_rq1(p, rollout_success, seed);
+}
+
+void EvalRow::add_rq2(const nlohmann::json& cell, int seed) {
+  success.push_back(cell.at("success").get<double>());
+  train.push_back(cell.at("train_s").get<double>());
+  threshold.push_back(cell.at("threshold_s").get<double>());
+  inference.push_back(cell.at("inference_s").get<double>());
+  last_train.push_back(cell.at("last_train_s").get<double>());
+  last_threshold.push_back(cell.at("last_threshold_s").get<double>());
+  last_inference.push_back(cell.at("last_inference_s").get<double>());
+  rq2_seeds.push_back(seed);
 }
 
 void write_eval_report(const ExperimentConfig& config, const EvalOptions& o, const std::map<std::string, EvalRow>& rows,
-                       double seconds, int skipped) {
+                       double seconds, int skipped, const std::vector<std::string>& missing) {
   const DaggerConfig& d = config.dagger;
   const bool bc_scaled = !config.train.from_scratch;
   // CSV files: the columns the issue names first, spreads and counts after them. "nan": undefined
@@ -77,16 +108,18 @@ void write_eval_report(const ExperimentConfig& config, const EvalOptions& o, con
                          csv_num(finite_mean_std(r.tnr).first), csv_num(finite_mean_std(r.f1).first), csv_num(finite_mean_std(r.acc).first),
                          csv_num(finite_mean_std(r.tpr).second), csv_num(finite_mean_std(r.tnr).second),
                          csv_num(finite_mean_std(r.f1).second), csv_num(finite_mean_std(r.acc).second), r.tp, r.fp, r.tn, r.fn,
-                         mean(r.rq1_success), o.seeds, o.episodes);
+                         mean(r.rq1_success), r.rq1_seeds.size(), o.episodes);
     }
     const EvalRow& r = rows.at(name);
-    rq2 += fmt::format("{},{:.3f},{},{:.3f},{}\n", name, mean_std(r.success).first, o.episodes * o.seeds, mean_std(r.success).second,
-                       o.seeds);
+    rq2 += fmt::format("{},{},{},{},{}\n", name, csv_num(mean_std(r.success).first), o.episodes * r.success.size(),
+                       csv_num(mean_std(r.success).second), r.success.size());
     const double risk = r.risk_data.empty() ? 0.0 : mean(r.risk_data);
-    rq3 += fmt::format("{},{:.3f},{:.3f},{:.3f},{:.3f},{:.3f},{:.3f},{:.3f},{:.3f},{:.3f},{:.3f},{:.3f},{:.3f},{}\n", name, mean(r.train),
-                       mean(r.threshold), mean(r.inference), mean(r.train) + mean(r.threshold) + mean(r.inference), mean(r.last_train),
-                       mean(r.last_threshold), mean(r.last_inference), mean(r.last_train) + mean(r.last_threshold) + mean(r.last_inference),
-                       risk, mean_std(r.train).second, mean_std(r.threshold).second, mean_std(r.inference).second, o.seeds);
+    rq3 += fmt::format("{},{},{},{},{},{},{},{},{},{:.3f},{},{},{},{}\n", name, csv_num(mean(r.train)), csv_num(mean(r.threshold)),
+                       csv_num(mean(r.inference)), csv_num(mean(r.train) + mean(r.threshold) + mean(r.inference)),
+                       csv_num(mean(r.last_train)), csv_num(mean(r.last_threshold)), csv_num(mean(r.last_inference)),
+                       csv_num(mean(r.last_train) + mean(r.last_threshold) + mean(r.last_inference)), risk,
+                       csv_num(mean_std(r.train).second), csv_num(mean_std(r.threshold).second), csv_num(mean_std(r.inference).second),
+                       r.train.size());
   }
   write_text(o.out + "/rq1.csv", rq1);
   write_text(o.out + "/rq2.csv", rq2);
@@ -101,6 +134,7 @@ void write_eval_report(const ExperimentConfig& config, const EvalOptions& o, con
     for (const std::string& name : o.methods) {
       if (gated_only && !method_info(name).gated) continue;
       const auto [m, sd] = value(rows.at(name));
+      if (!std::isfinite(m)) continue;  // no finished cell (a partial report)
       p.categories.push_back(method_title(name));
       p.values.push_back(m);
       p.errors.push_back(sd);
@@ -108,8 +142,11 @@ void write_eval_report(const ExperimentConfig& config, const EvalOptions& o, con
     }
     return ui::draw_bars(p);
   };
+  const bool partial = !missing.empty();
   const std::string caption =
-      o.seeds > 1 ? fmt::format("task {} (preset {}): mean +- std over {} seeds, {} rollouts each", config.task, config.preset, o.seeds, o.episodes)
+      partial ? fmt::format("task {} (preset {}): partial, each bar over the seeds finished (up to {}), {} rollouts each", config.task,
+                            config.preset, o.seeds, o.episodes)
+      : o.seeds > 1 ? fmt::format("task {} (preset {}): mean +- std over {} seeds, {} rollouts each", config.task, config.preset, o.seeds, o.episodes)
                   : fmt::format("task {} (preset {}): one seed, {} rollouts each", config.task, config.preset, o.episodes);
   ui::write_png(o.out + "/rq1_failure_prediction.png",
                 ui::hstack({bars("RQ1: F1 of queries vs failures", "F1", [](const EvalRow& r) { return finite_mean_std(r.f1); }, true),
@@ -130,10 +167,15 @@ void write_eval_report(const ExperimentConfig& config, const EvalOptions& o, con
       config.train.from_scratch
           ? fmt::format("every update retrains from scratch for {} epochs (at most {} steps)", config.train.epochs, config.train.max_steps)
           : fmt::format("{} training steps per update, continuing from the previous weights", config.train.steps);
-  std::string md = fmt::format("# Evaluation on {} (preset {}, expert {})\n\n{} seed(s), {} rollouts per measurement{}. "
+  std::string md = fmt::format("# Evaluation on {} (preset {}, expert {}){}\n\n{}{} seed(s), {} rollouts per measurement{}. "
                                "Schedule: N_i {}, N_f {}, N_d {}, alpha {}, K {} (the gate scores every {}), T_L {}, T_p {}, T_a {}; {}. "
                                "Thresholds over {} training pairs; the loss is scored with the {} weights, in {} space.\n\n",
-                               config.task, config.preset, config.expert, o.seeds, o.episodes,
+                               config.task, config.preset, config.expert, partial ? ", in progress" : "",
+                               partial ? fmt::format("**Partial report** (`eval --report`): {} cells are not finished (listed at the end); "
+                                                     "each row is over the seeds it has, named in its row. ",
+                                                     missing.size())
+                                       : "",
+                               o.seeds, o.episodes,
                                o.quick ? " (quick run: tiny budgets and 3-member ensembles, a smoke test; read with care)" : "",
                                d.initial_demos, d.final_demos, d.demos_per_update, config.method.alpha, d.patience, to_string(d.gate_every),
                                d.time_limit, config.policy.horizon, config.policy.action_steps, budget,
@@ -147,15 +189,16 @@ void write_eval_report(const ExperimentConfig& config, const EvalOptions& o, con
                     "the member trained on all the demonstrations; the other members are bootstrapped. The three methods' policies are "
                     "one ensemble per seed, trained once: Diff-DAgger's is its member 0, the very policy its own update would train "
                     "(same initial weights, data and minibatches), so the methods differ only in the query rule.\n\n"
-                    "| Task | N_D | Method | TPR | TNR | F1 | Acc | TP | FP | TN | FN | rollout success |\n"
-                    "|---|---|---|---|---|---|---|---|---|---|---|---|\n",
+                    "| Task | N_D | Method | TPR | TNR | F1 | Acc | TP | FP | TN | FN | rollout success | seeds |\n"
+                    "|---|---|---|---|---|---|---|---|---|---|---|---|---|\n",
                     config.rq1_demos,
                     config.train.from_scratch ? "the epoch rule" : fmt::format("{} steps", rq1_training(config).steps));
   for (const std::string& name : o.methods)
     for (const auto& [row_name, rp] : rq1_rows(name, rows.at(name))) {
       const EvalRow& r = *rp;
-      md += fmt::format("| {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} |\n", config.task, config.rq1_demos,
-                        rq1_title(name, row_name), pm(r.tpr), pm(r.tnr), pm(r.f1), pm(r.acc), r.tp, r.fp, r.tn, r.fn, pm(r.rq1_success));
+      md += fmt::format("| {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} |\n", config.task, config.rq1_demos,
+                        rq1_title(name, row_name), pm(r.tpr), pm(r.tnr), pm(r.f1), pm(r.acc), r.tp, r.fp, r.tn, r.fn, pm(r.rq1_success),
+                        seed_list(r.rq1_seeds));
     }
   if (!config.method.compare_scores.empty())
     md += fmt::format("\nRows \"scored R\" judge the same rollouts by another gate rule (method.compare_scores; R is the score space, "
@@ -164,29 +207,37 @@ void write_eval_report(const ExperimentConfig& config, const EvalOptions& o, con
                       config.method.score_space);
   md += fmt::format("\n## Table II: task performance (RQ2)\n\nSuccess rate of the final policy after interactive learning to N_f = {} "
                     "expert demonstrations (successful ones: an episode the expert failed is recorded but not trained on). {}\n\n"
-                    "| Task | Method | Success rate |\n|---|---|---|\n",
+                    "| Task | Method | Success rate | per seed |\n|---|---|---|---|\n",
                     d.final_demos,
                     bc_scaled ? fmt::format("BC: {} demonstrations, trained once with {}x the per-update budget, the gradient steps a DAgger "
                                             "run spends over its {} updates, since updates continue from the previous weights.",
                                             d.final_demos, bc_budget_factor(d), bc_budget_factor(d))
                               : fmt::format("BC: {} demonstrations, trained once by the same epoch rule as every update.", d.final_demos));
-  for (const std::string& name : o.methods) md += fmt::format("| {} | {} | {} |\n", config.task, method_title(name), pm(rows.at(name).success));
+  for (const std::string& name : o.methods) {
+    const EvalRow& r = rows.at(name);
+    md += fmt::format("| {} | {} | {} | {} |\n", config.task, method_title(name), pm(r.success), per_seed(r.success, r.rq2_seeds));
+  }
   md += "\n## Wall-clock per DAgger iteration (RQ3)\n\nThe final iteration (the paper's figure 4) and, in brackets, the mean over "
         "a run's iterations. Thrifty's risk data: the robot rollouts and critic refit its RQ1 policy needed before it could "
         "judge risk.\n\n| Method | training [s] | threshold setting [s] | inference [s] | total [s] | risk data [s] |\n"
         "|---|---|---|---|---|---|\n";
   for (const std::string& name : o.methods) {
     const EvalRow& r = rows.at(name);
-    md += fmt::format("| {} | {} ({}) | {} ({}) | {} ({}) | {:.2f} ({:.2f}) | {} |\n", method_title(name), pm(r.last_train), pm(r.train),
+    md += fmt::format("| {} | {} ({}) | {} ({}) | {} ({}) | {} ({}) | {} |\n", method_title(name), pm(r.last_train), pm(r.train),
                       pm(r.last_threshold), pm(r.threshold), pm(r.last_inference), pm(r.inference),
-                      mean(r.last_train) + mean(r.last_threshold) + mean(r.last_inference), mean(r.train) + mean(r.threshold) + mean(r.inference),
-                      r.risk_data.empty() ? "-" : pm(r.risk_data));
+                      total({mean(r.last_train), mean(r.last_threshold), mean(r.last_inference)}),
+                      total({mean(r.train), mean(r.threshold), mean(r.inference)}), r.risk_data.empty() ? "-" : pm(r.risk_data));
   }
   md += fmt::format("\nInference is the time spent deciding during the robot's rollouts between two updates. "
                     "Plots: `rq1_failure_prediction.png`, `rq2_success.png`, `rq3_wallclock.png`. "
                     "Each run's data set, checkpoints and query log are under `runs/`, each finished cell's numbers under `cells/`. "
-                    "Took {}{}.\n",
-                    format_duration(seconds), skipped > 0 ? fmt::format(" (and {} cells finished by an earlier, stopped run)", skipped) : "");
+                    "{}.\n",
+                    partial ? std::string("Written by `eval --report` from the finished cells")
+                            : fmt::format("Took {}{}", format_duration(seconds),
+                                          skipped > 0 ? fmt::format(" (and {} cells finished by an earlier, stopped run)", skipped) : ""));
+  if (partial)
+    md += fmt::format("\n## Cells not finished\n\n{}\n\nThe same `eval` command without `--report` runs them (`--cell ID` runs one).\n",
+                      fmt::format("{}", fmt::join(missing, ", ")));
   write_text(o.out + "/report.md", md);
   fmt::print("{}", md);
 }

@@ -18,18 +18,22 @@ struct EvalRow {
   std::vector<double> train, threshold, inference, risk_data;      // mean over a run's iterations
   std::vector<double> last_train, last_threshold, last_inference;  // the run's final iteration
   int tp = 0, fp = 0, tn = 0, fn = 0;                              // summed over seeds
+  std::vector<int> rq1_seeds, rq2_seeds;                           // the seeds of the values above
   /// Diff-DAgger's further gate rules (method.compare_scores), judged on the same rollouts: their
   /// RQ1 numbers, by rule.
   std::map<std::string, EvalRow> compared;
 
   /// One seed's RQ1 numbers from its cell (or a compared rule's entry in it); undefined rates are
   /// null there and NaN here.
-  void add_rq1(const nlohmann::json& cell, double rollout_success);
+  void add_rq1(const nlohmann::json& cell, double rollout_success, int seed);
+  /// One seed's RQ2 and RQ3 numbers from its cell.
+  void add_rq2(const nlohmann::json& cell, int seed);
 };
 
 /// Writes the CSVs, plots and report.md into o.out and prints the report. `seconds`: what this run
-/// took; `skipped`: cells an earlier, stopped run had finished.
+/// took; `skipped`: cells an earlier, stopped run had finished; `missing`: the ids of cells not
+/// finished yet (eval --report), which makes the report a partial one.
 void write_eval_report(const ExperimentConfig& config, const EvalOptions& o, const std::map<std::string, EvalRow>& rows,
-                       double seconds, int skipped);
+                       double seconds, int skipped, const std::vector<std::string>& missing = {});
 
 }  // namespace dd::app
