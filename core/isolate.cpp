@@ -16,6 +16,7 @@
 #include <cstring>
 
 #include "core/config.h"
+#include "core/runtime.h"
 
 #if defined(__has_feature)
 #if __has_feature(address_sanitizer)
@@ -23,10 +24,6 @@
 #define DD_HAVE_SANITIZER_HOOKS 1
 #endif
 #endif
-
-// OpenMP's pool does not survive fork: the child runs on one thread. (Weak: a program without
-// OpenMP has none to set.)
-extern "C" void omp_set_num_threads(int) __attribute__((weak));
 
 namespace dd {
 namespace {
@@ -41,7 +38,7 @@ void child_setup() {
 #ifdef DD_HAVE_SANITIZER_HOOKS
   __sanitizer_set_death_callback(nullptr);
 #endif
-  if (omp_set_num_threads) omp_set_num_threads(1);
+  set_openmp_threads(1);  // OpenMP's pool does not survive fork: the child runs on one thread
 }
 
 bool write_all(int fd, const char* p, size_t n) {

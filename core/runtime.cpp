@@ -22,6 +22,17 @@ int set_num_threads(int n) {
 
 int num_threads() { return at::get_num_threads(); }
 
+}  // namespace dd
+
+// Weak: a program without OpenMP has no pool to set.
+extern "C" void omp_set_num_threads(int) __attribute__((weak));
+
+namespace dd {
+
+void set_openmp_threads(int n) {
+  if (omp_set_num_threads) omp_set_num_threads(n);
+}
+
 namespace {
 std::atomic<bool> g_data_parallel{true};
 }

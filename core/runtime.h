@@ -10,6 +10,11 @@ int set_num_threads(int n = 0);
 /// The number of intra-op threads libtorch uses now.
 int num_threads();
 
+/// Sets the calling thread's OpenMP pool size (OpenBLAS's and oneDNN's kernels), without touching
+/// libtorch's setting; nothing in a program without OpenMP. A pool does not survive fork, and each
+/// thread has its own.
+void set_openmp_threads(int n);
+
 /// Work that splits in two (a training step's minibatch, a data set's pairs when setting a threshold)
 /// runs in two processes of one thread each when this process has two threads or more (the default,
 /// on), or in this process's threads (off). A step of libtorch operators uses a second thread

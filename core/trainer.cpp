@@ -61,15 +61,10 @@ void set_fused_optimizer(bool on) { fused_optimizer = on; }
 
 namespace {
 // OpenMP's pool size is per thread: this one's, for a scope.
-extern "C" void omp_set_num_threads(int) __attribute__((weak));
 class OneThread {
  public:
-  OneThread() : before_(at::get_num_threads()) {
-    if (omp_set_num_threads) omp_set_num_threads(1);
-  }
-  ~OneThread() {
-    if (omp_set_num_threads) omp_set_num_threads(before_);
-  }
+  OneThread() : before_(at::get_num_threads()) { set_openmp_threads(1); }
+  ~OneThread() { set_openmp_threads(before_); }
   OneThread(const OneThread&) = delete;
   OneThread& operator=(const OneThread&) = delete;
 
