@@ -1,8 +1,11 @@
 #include "core/task_config.h"
 
+#include <fmt/format.h>
+#include <fmt/ranges.h>
 #include <yaml-cpp/yaml.h>
 
 #include <filesystem>
+#include <optional>
 #include <nlohmann/json.hpp>
 #include <set>
 
@@ -156,7 +159,61 @@ ExperimentConfig table3(const std::string& name, const std::string& task, int ob
   return c;
 }
 
+// The paper's Table III row for a preset of one of its tasks (the schedule values only), if any.
+std::optional<ExperimentConfig> paper_row(const std::string& preset) {
+  if (preset == "stack") return table3(preset, "stack", 0, 0, 32, 8, 16, 20, 60, 4, 0.99, 2, 250);
+  if (preset == "push_1expert") return table3(preset, "push", 0, 0, 32, 2, 16, 20, 100, 4, 0.99, 1, 250);
+  if (preset == "push_2experts") return table3(preset, "push", 0, 0, 32, 2, 16, 20, 100, 4, 0.9, 2, 250);
+  if (preset == "plug") return table3(preset, "plug", 0, 0, 64, 8, 64, 20, 100, 8, 0.99, 2, 500);
+  return std::nullopt;
+}
+
 }  // namespace
+
+std::vector<std::string> paper_deviations(const ExperimentConfig& c) {
+  const std::optional<ExperimentConfig> paper = paper_row(c.preset);
+  if (!paper) return {fmt::format("Task {} (preset {}) is this project's own; the paper gives no schedule for it.", c.task, c.preset)};
+  std::vector<std::string> out;
+  std::vector<std::string> schedule;
+  auto differs = [&](const char* what, auto ours, auto theirs) {
+    if (ours != theirs) schedule.push_back(fmt::format("{} {} (paper {})", what, ours, theirs));
+  };
+  differs("T_p", c.policy.horizon, paper->policy.horizon);
+  differs("T_a", c.policy.action_steps, paper->policy.action_steps);
+  differs("T_d", c.policy.scheduler.num_train_timesteps, paper->policy.scheduler.num_train_timesteps);
+  differs("inference steps", c.policy.scheduler.num_inference_steps, paper->policy.scheduler.num_inference_steps);
+  differs("N_i", c.dagger.initial_demos, paper->dagger.initial_demos);
+  differs("N_f", c.dagger.final_demos, paper->dagger.final_demos);
+  differs("N_d", c.dagger.demos_per_update, paper->dagger.demos_per_update);
+  differs("alpha", c.method.alpha, paper->method.alpha);
+  differs("K", c.dagger.patience, paper->dagger.patience);
+  differs("T_L", c.dagger.time_limit, paper->dagger.time_limit);
+  out.push_back(schedule.empty() ? std::string("The schedule is the paper's Table III row for this task.")
+                                 : fmt::format("Schedule, against the paper's Table III: {}.", fmt::join(schedule, ", ")));
+  const std::vector<int> paper_dims{256, 512, 1024};
+  if (c.policy.unet.down_dims != paper_dims)
+    out.push_back(fmt::format("Network: a U-Net of down_dims {} (the paper's: 256,512,1024, a GPU size).", fmt::join(c.policy.unet.down_dims, ",")));
+  if (!c.train.from_scratch)
+    out.push_back(fmt::format("Training: each update continues from the previous weights for {} steps at batch {}; the authors' code "
+                              "retrains from scratch for min(300 epochs, 30,000 steps) at batch 64 after new data.",
+                              c.train.steps, c.train.batch_size));
+  else if (c.train.epochs != 300 || c.train.max_steps != 30000 || c.train.batch_size != 64)
+    out.push_back(fmt::format("Training: from scratch for min({} epochs, {} steps) at batch {} (the authors' code: min(300 epochs, "
+                              "30,000 steps) at batch 64).",
+                              c.train.epochs, c.train.max_steps, c.train.batch_size));
+  if (c.dagger.gate_every == GateCadence::kChunk)
+    out.push_back("The gate scores once per generated chunk, so K counts chunks; the authors' code scores a fresh chunk at every "
+                  "control step (dagger.gate_every: step), a point the paper leaves open.");
+  if (!c.method.score_raw_weights)
+    out.push_back("The expected loss is scored with the EMA weights that sample; the authors' code scores it with the raw training "
+                  "weights (method.score_weights: raw).");
+  out.push_back("Observations: the simulator's state (joints, end-effector pose, object poses); the paper's policies see camera images.");
+  if (c.task == "push")
+    out.push_back(fmt::format("Experts: scripted (mode {}); the paper's were PPO agents.", c.expert));
+  if (c.task == "push" && c.dagger.time_limit != paper->dagger.time_limit)
+    out.push_back("T_L is scaled to our pushing expert's episode length (about 170 steps, the paper's about 66).");
+  return out;
+}
 
 void ExperimentConfig::validate() const {
   policy.validate();

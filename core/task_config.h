@@ -37,6 +37,11 @@ struct ExperimentConfig {
 std::vector<std::string> preset_names();
 /// The preset; throws Error naming it when unknown.
 ExperimentConfig preset(const std::string& name);
+/// How a config departs from the paper's protocol for its task, one plain sentence each: the
+/// Table III schedule values that differ (T_p, T_a, T_d, N_i, N_f, N_d, alpha, K, T_L), the network
+/// size, the training budget against the authors' code, the observations and the experts. For the
+/// 2-D toys, which the paper has no schedule for, one sentence saying so.
+std::vector<std::string> paper_deviations(const ExperimentConfig& c);
 /// A preset with a file's overrides applied; errors name `path` and the key.
 ExperimentConfig load_experiment_config(const std::string& path);
 /// The config as JSON text (what runs write next to their results).

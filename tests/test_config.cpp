@@ -124,6 +124,41 @@ TEST(ExperimentConfig, ThePresetsNameTheirExperts) {
   EXPECT_EQ(preset("stack").method.calibration_pairs, 0);  // thresholds over every training pair
 }
 
+// Does any line contain `part`?
+bool mentions(const std::vector<std::string>& lines, const std::string& part) {
+  for (const std::string& l : lines)
+    if (l.find(part) != std::string::npos) return true;
+  return false;
+}
+
+TEST(ExperimentConfig, DeviationsFromThePaperAreListed) {
+  // stacking keeps Table III's schedule; the network, training and observations differ
+  std::vector<std::string> d = paper_deviations(preset("stack"));
+  EXPECT_TRUE(mentions(d, "is the paper's Table III row")) << d.front();
+  EXPECT_TRUE(mentions(d, "down_dims 32,64,128"));
+  EXPECT_TRUE(mentions(d, "730 steps at batch 128"));
+  EXPECT_TRUE(mentions(d, "camera images"));
+  EXPECT_TRUE(mentions(d, "once per generated chunk"));
+  // a changed schedule value is named with the paper's
+  ExperimentConfig c = preset("stack");
+  c.method.alpha = 0.9;
+  c.dagger.final_demos = 40;
+  d = paper_deviations(c);
+  EXPECT_TRUE(mentions(d, "N_f 40 (paper 60), alpha 0.9 (paper 0.99)")) << d.front();
+  EXPECT_FALSE(mentions(d, "is the paper's Table III row"));
+  c.dagger.gate_every = GateCadence::kStep;  // as the authors' code
+  EXPECT_FALSE(mentions(paper_deviations(c), "once per generated chunk"));
+  // pushing: our time limit and scripted experts
+  d = paper_deviations(preset("push_2experts"));
+  EXPECT_TRUE(mentions(d, "T_L 650 (paper 250)"));
+  EXPECT_TRUE(mentions(d, "PPO"));
+  EXPECT_FALSE(mentions(d, "alpha"));  // Table III has 0.9 for two experts, as the preset
+  // the toys have no schedule in the paper
+  d = paper_deviations(preset("nav2d"));
+  ASSERT_EQ(d.size(), 1u);
+  EXPECT_TRUE(mentions(d, "gives no schedule"));
+}
+
 TEST(ExperimentConfig, ProtocolOptionsReadFromAFile) {
   const std::string path = write_config("dd_protocol_options.yaml", R"(preset: push_2experts
 expert: ccw

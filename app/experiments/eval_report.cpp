@@ -10,6 +10,7 @@
 #include "core/method.h"
 #include "core/progress.h"
 #include "core/session.h"
+#include "core/task_config.h"
 #include "core/text_file.h"
 #include "ui/plot.h"
 
@@ -182,6 +183,9 @@ void write_eval_report(const ExperimentConfig& config, const EvalOptions& o, con
                                config.method.calibration_pairs > 0 ? fmt::format("at most {}", config.method.calibration_pairs) : "all",
                                config.method.score_raw_weights ? "raw training" : "EMA",
                                config.method.score_space == "target" ? "the training target's" : config.method.score_space);
+  md += "## Deviations from the paper's protocol\n\n";
+  for (const std::string& line : paper_deviations(config)) md += "- " + line + "\n";
+  md += "\n";
   md += fmt::format("## Table I: failure prediction (RQ1)\n\nPolicies trained on N_D = {} demonstrations, rolled out without intervention. "
                     "They are trained like BC ({}). "
                     "Positive = the rule would have asked; actual positive = the episode failed. TP, FP, TN, FN are summed over seeds; "
