@@ -2,14 +2,21 @@
 
 #include <chrono>
 #include <cmath>
+#include <map>
+#include <nlohmann/json.hpp>
 #include <random>
 
 #include "core/gate.h"
+#include "core/isolate.h"
+#include "core/runtime.h"
 
 namespace dd {
 
-std::vector<RolloutResult> evaluate_rollouts(Env& env, Method& method, int episodes, const RolloutSpec& spec, uint64_t seed,
-                                             const ProgressFn& progress, std::vector<RecordedEpisode>* recorded) {
+namespace {
+
+// evaluate_rollouts in this process.
+std::vector<RolloutResult> rollouts_here(Env& env, Method& method, int episodes, const RolloutSpec& spec, uint64_t seed,
+                                         const ProgressFn& progress, std::vector<RecordedEpisode>* recorded) {
   std::vector<RolloutResult> out;
   QueryGate gate(0.f, spec.patience);
   const size_t n_compare = method.compare_rules().size();
@@ -71,6 +78,77 @@ std::vector<RolloutResult> evaluate_rollouts(Env& env, Method& method, int episo
     if (progress) progress(e + 1, episodes, success_rate(out));
   }
   return out;
+}
+
+}  // namespace
+
+std::vector<RolloutResult> evaluate_rollouts(Env& env, Method& method, int episodes, const RolloutSpec& spec, uint64_t seed,
+                                             const ProgressFn& progress, std::vector<RecordedEpisode>* recorded) {
+  if (recorded || episodes < 2 || !split_in_two_processes()) return rollouts_here(env, method, episodes, spec, seed, progress, recorded);
+  std::vector<RolloutResult> out;
+  evaluate_rollouts_each(env, method, 0, episodes, spec, seed, [&](int e, const RolloutResult& r) {
+    out.push_back(r);
+    if (progress) progress(e + 1, episodes, success_rate(out));
+  });
+  return out;
+}
+
+void evaluate_rollouts_each(Env& env, Method& method, int first, int end, const RolloutSpec& spec, uint64_t seed,
+                            const std::function<void(int, const RolloutResult&)>& on_result) {
+  auto one = [&](int e) { return rollouts_here(env, method, 1, spec, seed + static_cast<uint64_t>(e), {}, nullptr).front(); };
+  if (end - first < 2 || !split_in_two_processes()) {
+    for (int e = first; e < end; ++e) on_result(e, one(e));
+    return;
+  }
+  // Each child reports "EPISODE JSON" as an episode ends; the parent hands them on in order.
+  std::map<int, RolloutResult> ahead;
+  int next = first;
+  auto job = [&](int j, const ReportFn& report) {
+    for (int e = first + j; e < end; e += 2) report(std::to_string(e) + " " + rollout_to_json(one(e)));
+    return std::string();
+  };
+  auto on_report = [&](int, const std::string& message) {
+    const size_t space = message.find(' ');
+    if (space == std::string::npos) throw Error("rollouts: a child process sent '" + message + "'");
+    ahead.emplace(std::stoi(message.substr(0, space)), rollout_from_json(message.substr(space + 1)));
+    for (auto it = ahead.find(next); it != ahead.end(); it = ahead.find(next)) {
+      on_result(next, it->second);
+      ahead.erase(it);
+      ++next;
+    }
+  };
+  run_in_children(2, 2, "rollouts", job, on_report);
+  if (next != end) throw Error("rollouts: the child processes ended after episode " + std::to_string(next) + " of " + std::to_string(end));
+}
+
+std::string rollout_to_json(const RolloutResult& r) {
+  return nlohmann::json{{"success", r.success},
+                        {"queried", r.queried},
+                        {"first_query_step", r.first_query_step},
+                        {"outcome", r.outcome},
+                        {"steps", r.steps},
+                        {"decisions", r.decisions},
+                        {"inference_s", r.inference_s},
+                        {"compare_queried", r.compare_queried}}
+      .dump();
+}
+
+RolloutResult rollout_from_json(const std::string& line) {
+  try {
+    const nlohmann::json j = nlohmann::json::parse(line);
+    RolloutResult r;
+    r.success = j.at("success").get<bool>();
+    r.queried = j.at("queried").get<bool>();
+    r.first_query_step = j.at("first_query_step").get<int>();
+    r.outcome = j.at("outcome").get<std::string>();
+    r.steps = j.at("steps").get<int>();
+    r.decisions = j.at("decisions").get<int>();
+    r.inference_s = j.at("inference_s").get<double>();
+    r.compare_queried = j.at("compare_queried").get<std::vector<uint8_t>>();
+    return r;
+  } catch (const nlohmann::json::exception& e) {
+    throw Error(std::string("not a rollout (") + e.what() + ")");
+  }
 }
 
 RecordedEpisode expert_episode(Env& env, Expert& expert, uint64_t seed) {

@@ -3,6 +3,8 @@
 #pragma once
 
 #include <cstdint>
+#include <functional>
+#include <string>
 #include <vector>
 
 #include "core/env.h"
@@ -35,8 +37,24 @@ struct RolloutSpec {
 /// Runs `episodes` robot-only episodes from seeds seed, seed + 1, ... with time limit T_L, deciding
 /// like the session does (a chunk per T_a steps; with GateCadence::kStep a scored chunk at every step).
 /// When `recorded` is given, every episode's steps are appended to it as robot data (Thrifty's critic).
+/// Without `recorded`, and when the work splits in two (core/runtime.h: two threads or more), two
+/// one-thread child processes take alternate episodes (see evaluate_rollouts_each).
 std::vector<RolloutResult> evaluate_rollouts(Env& env, Method& method, int episodes, const RolloutSpec& spec, uint64_t seed,
                                              const ProgressFn& progress = {}, std::vector<RecordedEpisode>* recorded = nullptr);
+
+/// Episodes first .. end - 1 (episode e from seed `seed + e`, the method unchanged between them, so
+/// each depends on its seed alone), handed to on_result(e, result) in episode order as they end.
+/// When the work splits in two (core/runtime.h), two one-thread child processes take alternate
+/// episodes: a batch-1 decision uses a second thread poorly (at down_dims 32,64,128 89 ms on two
+/// threads against 134 ms on one), and the simulator's steps run in both. Each episode then gives
+/// what a one-thread run gives. An on_result that throws stops the children.
+void evaluate_rollouts_each(Env& env, Method& method, int first, int end, const RolloutSpec& spec, uint64_t seed,
+                            const std::function<void(int episode, const RolloutResult&)>& on_result);
+
+/// A rollout's result as one line of JSON (no newline), and back; the latter throws Error naming
+/// what is wrong.
+std::string rollout_to_json(const RolloutResult& r);
+RolloutResult rollout_from_json(const std::string& line);
 
 /// One episode of `expert` from `seed` (env and expert reset with it), run until the env says done:
 /// every step flagged as an intervention, source "expert", reward 1 on the last step of a success.

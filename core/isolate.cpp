@@ -225,7 +225,14 @@ std::vector<std::string> run_in_children(int n, int concurrent, const std::strin
         std::string payload;
         while (next_frame(c.buffer, pos, type, payload)) {
           if (type == 'M') {
-            if (on_report) on_report(c.job, payload);
+            if (on_report) {
+              try {
+                on_report(c.job, payload);
+              } catch (...) {  // the caller gives up on the jobs: no child outlives this call
+                kill_all();
+                throw;
+              }
+            }
           } else if (type == 'O') {
             results[static_cast<size_t>(c.job)] = std::move(payload);
             c.done = true;

@@ -43,7 +43,8 @@ using ReportFn = std::function<void(const std::string& message)>;
 /// on this machine (OpenMP's barriers and the shared address space's page faults), while two
 /// processes run at nearly twice the speed. `on_report(i, message)` receives job i's messages on the
 /// calling thread as they arrive. When a job throws, or a child dies, the other children are killed
-/// and Error("<what>: job i: ...") is thrown. Same rules for `job` as for read_in_child's `read`.
+/// and Error("<what>: job i: ...") is thrown; when on_report throws, the children are killed and its
+/// exception goes on. Same rules for `job` as for read_in_child's `read`.
 /// The children run at a lower priority (nice +4) than the caller.
 std::vector<std::string> run_in_children(int n, int concurrent, const std::string& what,
                                          const std::function<std::string(int, const ReportFn&)>& job,

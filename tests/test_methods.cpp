@@ -8,6 +8,7 @@
 #include <filesystem>
 #include <fstream>
 
+#include <sys/wait.h>
 #include <unistd.h>
 
 #include "core/critic.h"
@@ -18,6 +19,8 @@
 #include "core/policy.h"
 #include "core/synthetic.h"
 #include "core/gate.h"
+#include "core/isolate.h"
+#include "core/runtime.h"
 #include "core/trainer.h"
 #include "tests/fakes.h"
 
@@ -271,6 +274,71 @@ TEST(Rollouts, ComparedRulesAreJudgedOnTheSameRollouts) {
   // K = 1: the alternating rule asks at its first violation
   const auto eager = evaluate_rollouts(env, m, 1, RolloutSpec{100, 1, 4, GateCadence::kChunk}, 0);
   EXPECT_EQ(eager.front().compare_queried[0], 1);
+}
+
+namespace {
+
+// Acts and judges from the decision's seed alone (as the real methods do): steps of 0.2 to 1.0, a
+// violation on two seeds in a row of every six, its compared rule on every other.
+class SeededMethod : public AlwaysViolates {
+ public:
+  SeededMethod() : AlwaysViolates(true) {}
+  std::vector<std::string> compare_rules() const override { return {"even"}; }
+  MethodDecision decide(const Vec&, uint64_t seed) override {
+    MethodDecision d;
+    d.chunk = Mat::Constant(4, 1, 0.2f + 0.2f * static_cast<float>(((seed * 0x9E3779B97F4A7C15ull) >> 59) % 5));
+    d.violation = (seed / 2) % 3 == 0;
+    d.compare_violations = {static_cast<uint8_t>(seed % 2 == 0)};
+    return d;
+  }
+};
+
+bool same(const RolloutResult& a, const RolloutResult& b) {
+  return a.success == b.success && a.queried == b.queried && a.first_query_step == b.first_query_step && a.steps == b.steps &&
+         a.decisions == b.decisions && a.outcome == b.outcome && a.compare_queried == b.compare_queried;
+}
+
+}  // namespace
+
+// At 2 threads two one-thread child processes take alternate episodes and hand them back in order:
+// the same episodes as one process, and a failing consumer stops them.
+TEST(Rollouts, TwoProcessesGiveTheEpisodesOfOne) {
+  fakes::LineEnv env(/*goal=*/12, /*limit=*/20);
+  SeededMethod m;
+  const RolloutSpec spec{20, 2, 4, GateCadence::kChunk};
+  const int threads = num_threads();
+  set_num_threads(2);
+  set_data_parallel(false);
+  const std::vector<RolloutResult> one = evaluate_rollouts(env, m, 9, spec, 100);
+  set_data_parallel(true);
+  const int started = children_started();
+  const std::vector<RolloutResult> two = evaluate_rollouts(env, m, 9, spec, 100);
+  EXPECT_EQ(children_started(), started + 2);
+  ASSERT_EQ(two.size(), one.size());
+  int failed = 0, queried = 0;
+  for (size_t e = 0; e < one.size(); ++e) {
+    EXPECT_TRUE(same(one[e], two[e])) << "episode " << e;
+    failed += !one[e].success;
+    queried += one[e].queried;
+  }
+  EXPECT_GT(failed, 0);  // the episodes differ from one another, so an order mix-up would show
+  EXPECT_LT(failed, 9);
+  EXPECT_GT(queried, 0);
+  // a range, in order, from the first episode asked for
+  std::vector<int> order;
+  evaluate_rollouts_each(env, m, 3, 8, spec, 100, [&](int e, const RolloutResult& r) {
+    EXPECT_TRUE(same(r, one[static_cast<size_t>(e)])) << "episode " << e;
+    order.push_back(e);
+  });
+  EXPECT_EQ(order, (std::vector<int>{3, 4, 5, 6, 7}));
+  // a consumer that throws (a full disk) stops the children: none is left behind
+  EXPECT_THROW(evaluate_rollouts_each(env, m, 0, 9, spec, 100,
+                                      [](int e, const RolloutResult&) {
+                                        if (e == 2) throw Error("disk full");
+                                      }),
+               Error);
+  EXPECT_EQ(::waitpid(-1, nullptr, WNOHANG), -1);  // no child process at all (ECHILD)
+  set_num_threads(threads);
 }
 
 TEST(Methods, ScoreRulesParseAndName) {

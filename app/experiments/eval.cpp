@@ -253,11 +253,8 @@ namespace {
 
 // RQ1's rollouts, one JSON line each, so that a stopped cell keeps the ones that ended.
 void append_rollout(const std::string& path, const RolloutResult& r) {
-  const nlohmann::json j{{"success", r.success}, {"queried", r.queried}, {"first_query_step", r.first_query_step},
-                         {"outcome", r.outcome}, {"steps", r.steps},     {"decisions", r.decisions},
-                         {"inference_s", r.inference_s}, {"compare_queried", r.compare_queried}};
   std::ofstream f(path, std::ios::app);
-  f << j.dump() << "\n";
+  f << rollout_to_json(r) << "\n";
   f.flush();
   if (!f) throw Error(path + ": could not append a rollout (disk full?)");
 }
@@ -273,19 +270,9 @@ std::vector<RolloutResult> read_rollouts(const std::string& path) {
     ++n;
     if (lines.eof() && !line.empty()) break;  // no newline: cut short
     try {
-      const nlohmann::json j = nlohmann::json::parse(line);
-      RolloutResult r;
-      r.success = j.at("success").get<bool>();
-      r.queried = j.at("queried").get<bool>();
-      r.first_query_step = j.at("first_query_step").get<int>();
-      r.outcome = j.at("outcome").get<std::string>();
-      r.steps = j.at("steps").get<int>();
-      r.decisions = j.at("decisions").get<int>();
-      r.inference_s = j.at("inference_s").get<double>();
-      r.compare_queried = j.at("compare_queried").get<std::vector<uint8_t>>();
-      out.push_back(r);
-    } catch (const nlohmann::json::exception& e) {
-      throw Error(path + ": line " + std::to_string(n) + " is not a rollout (" + e.what() + "); remove the file to run its rollouts again");
+      out.push_back(rollout_from_json(line));
+    } catch (const Error& e) {
+      throw Error(path + ": line " + std::to_string(n) + " is " + e.what() + "; remove the file to run its rollouts again");
     }
   }
   return out;
@@ -399,11 +386,11 @@ void run_eval(const ExperimentConfig& config, const EvalOptions& o) {
     {
       ProgressBar bar(fmt::format("[seed {}] RQ1 {:8} rollouts", s, name), "success");
       bar.resume_from(static_cast<int>(results.size()));
-      for (int e = static_cast<int>(results.size()); e < o.episodes; ++e) {
-        results.push_back(evaluate_rollouts(*env, *m, 1, spec, eval_seed + static_cast<uint64_t>(e)).front());
-        append_rollout(rollouts_file, results.back());
+      evaluate_rollouts_each(*env, *m, static_cast<int>(results.size()), o.episodes, spec, eval_seed, [&](int e, const RolloutResult& r) {
+        results.push_back(r);
+        append_rollout(rollouts_file, r);
         bar.update(e + 1, o.episodes, success_rate(results));
-      }
+      });
     }
     auto prediction_json = [](const FailurePrediction& p) {
       return nlohmann::json{{"tpr", p.tpr}, {"tnr", p.tnr}, {"f1", p.f1}, {"acc", p.accuracy},
