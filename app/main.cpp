@@ -27,8 +27,8 @@ int main(int argc, char** argv) {
   bool one_process = false;
   app.add_option("--threads", threads, "libtorch threads (default: $DD_THREADS or 2)");
   app.add_flag("--one-process", one_process,
-               "with 2 threads or more, run each training step and threshold pass in this process's threads "
-               "instead of splitting it between two one-thread child processes (also $DD_ONE_PROCESS=1)");
+               "with 2 threads or more, run training steps, threshold passes and rollouts in this process's threads "
+               "instead of splitting them between two one-thread child processes (also $DD_ONE_PROCESS=1)");
   app.add_flag("-v,--verbose", verbose, "debug logging");
 
   std::map<CLI::App*, dd::app::Command> commands;

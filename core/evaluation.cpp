@@ -4,6 +4,7 @@
 #include <cmath>
 #include <map>
 #include <nlohmann/json.hpp>
+#include <spdlog/spdlog.h>
 #include <random>
 
 #include "core/gate.h"
@@ -117,6 +118,7 @@ void evaluate_rollouts_each(Env& env, Method& method, int first, int end, const 
       ++next;
     }
   };
+  spdlog::debug("rollouts {} to {} in two child processes", first, end - 1);
   run_in_children(2, 2, "rollouts", job, on_report);
   if (next != end) throw Error("rollouts: the child processes ended after episode " + std::to_string(next) + " of " + std::to_string(end));
 }

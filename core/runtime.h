@@ -15,7 +15,8 @@ int num_threads();
 /// thread has its own.
 void set_openmp_threads(int n);
 
-/// Work that splits in two (a training step's minibatch, a data set's pairs when setting a threshold)
+/// Work that splits in two (a training step's minibatch, a data set's pairs when setting a threshold,
+/// a batch of independent rollouts)
 /// runs in two processes of one thread each when this process has two threads or more (the default,
 /// on), or in this process's threads (off). A step of libtorch operators uses a second thread
 /// poorly; a second process, nearly fully. Both give the same numbers up to float rounding.

@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
-# The two-process split and its switch: at 2 threads a training step's minibatch and the threshold's
-# scoring passes go to one-thread child processes; `--one-process` or $DD_ONE_PROCESS=1 keep them in
-# this process's threads. Both ways train the same policy up to float rounding.
+# The two-process split and its switch: at 2 threads a training step's minibatch, the threshold's
+# scoring passes and the rollouts go to one-thread child processes; `--one-process` or
+# $DD_ONE_PROCESS=1 keep them in this process's threads. Both ways train the same policy up to float
+# rounding.
 set -euo pipefail
 bin=$1
 dir=$(mktemp -d)
@@ -13,9 +14,12 @@ run() {  # run NAME [ENV=VALUE...] [-- GLOBAL FLAGS...]: a tiny training run at 
   while [ $# -gt 0 ] && [ "$1" != "--" ]; do envs+=("$1"); shift; done
   [ $# -gt 0 ] && shift && flags=("$@")
   env "${envs[@]+"${envs[@]}"}" "$bin" -v --threads 2 "${flags[@]+"${flags[@]}"}" train --task nav2d --demos 4 --steps 20 \
-    --batch 32 --threshold screened --out "$name" >"$name.log" 2>&1 || { cat "$name.log"; exit 1; }
+    --batch 32 --threshold screened --eval 2 --out "$name" >"$name.log" 2>&1 || { cat "$name.log"; exit 1; }
 }
-split() { grep -q "minibatch split with child process" "$1.log" && grep -q "training pairs in two child processes" "$1.log"; }
+split() {
+  grep -q "minibatch split with child process" "$1.log" && grep -q "training pairs in two child processes" "$1.log" &&
+    grep -q "rollouts 0 to 1 in two child processes" "$1.log"
+}
 run two DD_ONE_PROCESS=0
 split two || { echo "FAIL: 2 threads did not split the work between two processes"; cat two.log; exit 1; }
 run flag -- --one-process
