@@ -85,7 +85,7 @@ std::vector<RolloutResult> rollouts_here(Env& env, Method& method, int episodes,
 
 std::vector<RolloutResult> evaluate_rollouts(Env& env, Method& method, int episodes, const RolloutSpec& spec, uint64_t seed,
                                              const ProgressFn& progress, std::vector<RecordedEpisode>* recorded) {
-  if (recorded || episodes < 2 || !split_in_two_processes()) return rollouts_here(env, method, episodes, spec, seed, progress, recorded);
+  if (recorded) return rollouts_here(env, method, episodes, spec, seed, progress, recorded);
   std::vector<RolloutResult> out;
   evaluate_rollouts_each(env, method, 0, episodes, spec, seed, [&](int e, const RolloutResult& r) {
     out.push_back(r);

@@ -8,6 +8,9 @@
 #include <string_view>
 #include <thread>
 
+// Weak: a program without OpenMP has no pool to set.
+extern "C" void omp_set_num_threads(int) __attribute__((weak));
+
 namespace dd {
 
 int set_num_threads(int n) {
@@ -21,13 +24,6 @@ int set_num_threads(int n) {
 }
 
 int num_threads() { return at::get_num_threads(); }
-
-}  // namespace dd
-
-// Weak: a program without OpenMP has no pool to set.
-extern "C" void omp_set_num_threads(int) __attribute__((weak));
-
-namespace dd {
 
 void set_openmp_threads(int n) {
   if (omp_set_num_threads) omp_set_num_threads(n);

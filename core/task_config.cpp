@@ -159,12 +159,14 @@ ExperimentConfig table3(const std::string& name, const std::string& task, int ob
   return c;
 }
 
-// The paper's Table III row for a preset of one of its tasks (the schedule values only), if any.
+// The paper's Table III row for a preset of one of its tasks, with our state observations' sizes
+// (joints, end-effector pose with 6-D rotation, gripper, object poses), if any. The presets start
+// from it.
 std::optional<ExperimentConfig> paper_row(const std::string& preset) {
-  if (preset == "stack") return table3(preset, "stack", 0, 0, 32, 8, 16, 20, 60, 4, 0.99, 2, 250);
-  if (preset == "push_1expert") return table3(preset, "push", 0, 0, 32, 2, 16, 20, 100, 4, 0.99, 1, 250);
-  if (preset == "push_2experts") return table3(preset, "push", 0, 0, 32, 2, 16, 20, 100, 4, 0.9, 2, 250);
-  if (preset == "plug") return table3(preset, "plug", 0, 0, 64, 8, 64, 20, 100, 8, 0.99, 2, 500);
+  if (preset == "stack") return table3(preset, "stack", 37, 10, 32, 8, 16, 20, 60, 4, 0.99, 2, 250);
+  if (preset == "push_1expert") return table3(preset, "push", 24, 7, 32, 2, 16, 20, 100, 4, 0.99, 1, 250);
+  if (preset == "push_2experts") return table3(preset, "push", 24, 7, 32, 2, 16, 20, 100, 4, 0.9, 2, 250);
+  if (preset == "plug") return table3(preset, "plug", 37, 10, 64, 8, 64, 20, 100, 8, 0.99, 2, 500);
   return std::nullopt;
 }
 
@@ -258,9 +260,8 @@ ExperimentConfig preset(const std::string& name) {
     c.task = "nav2d_random";
     c.policy.obs_dim = 6;
   } else if (name == "stack") {
-    // MuJoCo tasks: Table III schedules. Observation sizes are those of the state observations
-    // planned for them (joints, end-effector pose with 6-D rotation, gripper, object poses).
-    c = table3(name, "stack", 37, 10, 32, 8, 16, 20, 60, 4, 0.99, 2, 250);
+    // MuJoCo tasks: Table III schedules (paper_row).
+    c = *paper_row(name);
     c.expert = "planner";
     // CPU budget: 730 steps at batch 128 per update, so BC on N_f = 60 (11 updates' worth, 8030
     // steps) reaches 0.90 over 100 rollouts (results/bc_curves/stack)
@@ -269,7 +270,8 @@ ExperimentConfig preset(const std::string& name) {
     c.rq1_demos = 30;
   } else if (name == "push_1expert") {
     // T_L: the paper's 250 steps for an expert of ~66 steps, scaled to ours of ~170 (envs/mujoco/push.h)
-    c = table3(name, "push", 24, 7, 32, 2, 16, 20, 100, 4, 0.99, 1, 650);
+    c = *paper_row(name);
+    c.dagger.time_limit = 650;
     // one expert, one sense of rotation; demonstrations recorded with execution noise (DART): BC on
     // N_f = 100 went from 0.67 to 0.97 over 100 rollouts (results/bc_curves/push_1expert)
     c.expert = "cw+noise";
@@ -279,14 +281,15 @@ ExperimentConfig preset(const std::string& name) {
     // RQ1: BC on 20 demonstrations succeeds in 47% of 100 rollouts (40: 75%; results/bc_curves/push_1expert)
     c.rq1_demos = 20;
   } else if (name == "push_2experts") {
-    c = table3(name, "push", 24, 7, 32, 2, 16, 20, 100, 4, 0.9, 2, 650);
+    c = *paper_row(name);
+    c.dagger.time_limit = 650;  // as push_1expert's
     c.expert = "alternate+noise";  // two experts: cw and ccw on alternate episodes, with DART noise as above
     c.train.steps = 762;
     c.train.batch_size = 128;
     // RQ1: BC on 50 demonstrations succeeds in 56% of 100 rollouts (results/bc_curves/push_2experts)
     c.rq1_demos = 50;
   } else if (name == "plug") {
-    c = table3(name, "plug", 37, 10, 64, 8, 64, 20, 100, 8, 0.99, 2, 500);
+    c = *paper_row(name);
     c.expert = "planner";
     // Budget: 1455 steps at batch 128 per update, so BC on N_f = 100 (11 updates' worth) trains 16005
     // steps, about the paper's min(300 epochs, 30,000 steps) at batch 64 for our 8916 pairs. BC there:

@@ -16,6 +16,7 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <optional>
 #include <sstream>
 #include <numeric>
@@ -475,34 +476,9 @@ void run_eval(const ExperimentConfig& config, const EvalOptions& o) {
     return;
   }
 
-  // --report: the report from the finished cells alone; nothing runs.
-  if (o.report_only) {
-    std::vector<std::string> missing;
-    for (int s = 0; s < o.seeds; ++s)
-      for (const std::string& name : o.methods) {
-        EvalRow& row = rows[name];
-        const std::vector<EvalCell> cells = method_info(name).gated ? std::vector<EvalCell>{{name, s, true}, {name, s, false}}
-                                                                     : std::vector<EvalCell>{{name, s, false}};
-        for (const EvalCell& cell : cells) {
-          const std::string file = cell_file(cell.method, cell.seed, cell.rq1);
-          const auto j = finished(file, {file});
-          if (!j) {
-            missing.push_back(cell.id());
-          } else if (cell.rq1) {
-            row.add_rq1(*j, (*j)["success"].get<double>(), s);
-            if (method_info(name).learns_risk) row.risk_data.push_back((*j)["risk_data_s"].get<double>());
-          } else {
-            row.add_rq2(*j, s);
-          }
-        }
-      }
-    write_eval_report(config, o, rows, 0, 0, missing);
-    return;
-  }
-
   // --jobs N: the unfinished cells, the longest first, N at a time, each in a process of its own.
   std::set<std::string> ran_here;  // cells finished by this run's child processes
-  if (o.jobs > 1) {
+  if (o.jobs > 1 && !o.report_only) {
     std::vector<EvalCell> todo;
     for (const EvalCell& cell : eval_cells(o.methods, o.seeds)) {
       const std::string file = cell_file(cell.method, cell.seed, cell.rq1);
@@ -513,31 +489,37 @@ void run_eval(const ExperimentConfig& config, const EvalOptions& o) {
     run_cells_in_processes(todo, o.jobs, o.out + "/logs");
   }
 
+  // A cell's numbers: read back when finished, else run here; with --report, nothing runs and the
+  // unfinished cell is listed.
+  std::vector<std::string> missing;
+  auto cell_numbers = [&](const EvalCell& cell, const std::function<void()>& run) -> std::optional<nlohmann::json> {
+    const std::string file = cell_file(cell.method, cell.seed, cell.rq1);
+    if (o.report_only) {
+      auto j = finished(file, {file});
+      if (!j) missing.push_back(cell.id());
+      return j;
+    }
+    auto j = finished(file, ran_here);
+    if (!j) {
+      run();
+      j = finished(file, {file});
+    }
+    return j;
+  };
   for (int s = 0; s < o.seeds; ++s) {
     for (const std::string& name : o.methods) {
       EvalRow& row = rows[name];
-      if (method_info(name).gated) {
-        const std::string file = cell_file(name, s, true);
-        auto j = finished(file, ran_here);
-        if (!j) {
-          run_rq1_cell(name, s);
-          j = finished(file, {file});
+      if (method_info(name).gated)
+        if (const auto j = cell_numbers({name, s, true}, [&] { run_rq1_cell(name, s); })) {
+          row.add_rq1(*j, (*j)["success"].get<double>(), s);
+          if (method_info(name).learns_risk) row.risk_data.push_back((*j)["risk_data_s"].get<double>());
         }
-        row.add_rq1(*j, (*j)["success"].get<double>(), s);
-        if (method_info(name).learns_risk) row.risk_data.push_back((*j)["risk_data_s"].get<double>());
-      }
-      const std::string file = cell_file(name, s, false);
-      auto j = finished(file, ran_here);
-      if (!j) {
-        run_rq2_cell(name, s);
-        j = finished(file, {file});
-      }
-      row.add_rq2(*j, s);
+      if (const auto j = cell_numbers({name, s, false}, [&] { run_rq2_cell(name, s); })) row.add_rq2(*j, s);
     }
   }
 
   const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count();
-  write_eval_report(config, o, rows, seconds, skipped);
+  write_eval_report(config, o, rows, seconds, skipped, missing);
 }
 
 }  // namespace dd::app
