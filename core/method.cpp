@@ -32,9 +32,18 @@ class DiffMethod : public Method {
     main_rule_ = {mc.score_space, mc.score_timesteps};
     use(main_rule_);
     policy_.set_inference_precision(inference_precision_from(mc.precision));
+    const int own_timesteps = policy_.score_timesteps();
     for (const std::string& r : mc.compare_scores) {
       compare_.push_back(ScoreRule::parse(r));
       ScoredBy check(*this, compare_.back());  // checks the rule against T_d now rather than at the first decision
+      // A rule over the method's own timesteps is scored from the decision's own rows, in its space;
+      // one over other timesteps needs rows of its own.
+      if (policy_.score_timesteps() == own_timesteps) {
+        compare_shared_.push_back(static_cast<int>(shared_spaces_.size()));
+        shared_spaces_.push_back(policy_.score_space());
+      } else {
+        compare_shared_.push_back(-1);
+      }
     }
     compare_thresholds_.assign(compare_.size(), INFINITY);
   }
@@ -70,17 +79,24 @@ class DiffMethod : public Method {
   }
 
   MethodDecision decide(const Vec& obs, uint64_t seed) override {
-    const Decision d = policy_.decide(obs, seed, config_.loss_samples);
+    const Decision d = policy_.decide(obs, seed, config_.loss_samples, shared_spaces_);
     MethodDecision m;
     m.chunk = d.chunk;
     m.score = d.loss;
     m.threshold = threshold_;
     m.violation = violates(d.loss, threshold_);
     m.reason = m.violation ? QueryReason::kScore : QueryReason::kNone;
-    // The compared rules score the same chunk, each in its own way, with noise of their own.
+    // The compared rules score the same chunk, each in its own way: those over the method's own
+    // timesteps from the very rows its score came from (a paired comparison, and no further pass of
+    // the network), the others with rows and noise of their own.
     for (size_t i = 0; i < compare_.size(); ++i) {
-      ScoredBy rule(*this, compare_[i]);
-      const float loss = policy_.expected_loss(obs, d.chunk, seed ^ (0x5C0E'0000'0000'0000ull + i), config_.loss_samples);
+      float loss;
+      if (compare_shared_[i] >= 0) {
+        loss = d.also[static_cast<size_t>(compare_shared_[i])];
+      } else {
+        ScoredBy rule(*this, compare_[i]);
+        loss = policy_.expected_loss(obs, d.chunk, seed ^ (0x5C0E'0000'0000'0000ull + i), config_.loss_samples);
+      }
       m.compare_scores.push_back(loss);
       m.compare_violations.push_back(violates(loss, compare_thresholds_[i]));
     }
@@ -149,6 +165,8 @@ class DiffMethod : public Method {
   ScoreRule main_rule_;
   std::vector<ScoreRule> compare_;
   std::vector<float> compare_thresholds_;
+  std::vector<int> compare_shared_;         // per compared rule: its index in shared_spaces_, or -1
+  std::vector<ScoreSpace> shared_spaces_;  // scored from the decision's own rows
 };
 
 class EnsembleMethod : public Method {

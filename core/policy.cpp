@@ -503,12 +503,18 @@ LossQuantile DiffusionPolicy::loss_quantile(const ChunkDataset& data, double alp
   return q;
 }
 
-Decision DiffusionPolicy::decide(const Vec& obs, uint64_t seed, int n_samples) const {
+Decision DiffusionPolicy::decide(const Vec& obs, uint64_t seed, int n_samples) const { return decide(obs, seed, n_samples, {}); }
+
+Decision DiffusionPolicy::decide(const Vec& obs, uint64_t seed, int n_samples, const std::vector<ScoreSpace>& also) const {
   torch::Generator gen = make_generator(seed);
   const torch::Tensor o = impl_->obs_tensor(obs.transpose());
   const torch::Tensor x = impl_->sample(o, gen);
+  std::vector<ScoreSpace> spaces{impl_->score_space};
+  spaces.insert(spaces.end(), also.begin(), also.end());
+  const std::vector<torch::Tensor> rows = impl_->row_losses(o, x, n_samples, gen, spaces, impl_->scored_timesteps());
   Decision d;
-  d.loss = impl_->expected_loss(o, x, n_samples, gen).item<float>();
+  d.loss = rows[0].mean(1).item<float>();  // what impl_->expected_loss gives: the same rows, the same mean
+  for (size_t i = 1; i < rows.size(); ++i) d.also.push_back(rows[i].mean(1).item<float>());
   d.chunk = impl_->raw_chunk(x[0], obs);
   return d;
 }

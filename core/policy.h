@@ -48,8 +48,9 @@ std::string to_string(InferencePrecision p);
 
 /// One control decision: the generated chunk and its expected diffusion loss.
 struct Decision {
-  Mat chunk;         // T_p x action_dim, raw units
-  float loss = 0.f;  // expected diffusion loss of (obs, chunk)
+  Mat chunk;                // T_p x action_dim, raw units
+  float loss = 0.f;         // expected diffusion loss of (obs, chunk)
+  std::vector<float> also;  // the same rows' loss in each of decide()'s `also` spaces, in order
 };
 
 /// A threshold over training pairs: the alpha-quantile of their expected losses.
@@ -130,6 +131,10 @@ class DiffusionPolicy {
                                                    const std::vector<ScoreSpace>& spaces) const;
   /// Sampling plus expected loss of the sampled chunk: what the robot does at every decision.
   Decision decide(const Vec& obs, uint64_t seed, int n_samples = kDefaultLossSamples) const;
+  /// The same, with the chunk's loss also measured in each of `also` (Decision::also): the same
+  /// noise, the same timesteps and the same pass of the network, so `loss` and `chunk` equal the
+  /// plain decide()'s and each extra space costs only its conversion.
+  Decision decide(const Vec& obs, uint64_t seed, int n_samples, const std::vector<ScoreSpace>& also) const;
 
   /// Writes config, normalisers, weights and EMA weights to one file (atomically: temp file + rename).
   /// Throws Error naming the file on failure; an existing checkpoint is left intact.

@@ -282,4 +282,29 @@ TEST_F(BimodalPolicy, DecisionGivesAChunkInRangeAndAFiniteLoss) {
   EXPECT_THROW(policy_->sample(Vec::Zero(5), 0), Error);  // wrong observation size
 }
 
+// A decision scored in further spaces from its own rows: its chunk and loss are the plain decision's,
+// and each further loss is what the decision gives with the policy scoring in that space (the same
+// sample, the same noise), also when the policy scores only the low-noise timesteps.
+TEST_F(BimodalPolicy, ADecisionScoresFurtherSpacesFromItsOwnRows) {
+  const Vec obs = data_->obs.row(3).transpose();
+  for (const int k : {0, 2}) {
+    policy_->set_score_timesteps(k);
+    const Decision plain = policy_->decide(obs, 11, 64);
+    const Decision both = policy_->decide(obs, 11, 64, {ScoreSpace::kEpsilon, ScoreSpace::kSample});
+    EXPECT_TRUE(plain.also.empty());
+    ASSERT_EQ(both.also.size(), 2u);
+    EXPECT_EQ(both.loss, plain.loss) << "k " << k;
+    EXPECT_TRUE(both.chunk.isApprox(plain.chunk, 0.f)) << "k " << k;
+    policy_->set_score_space(ScoreSpace::kEpsilon);
+    const Decision eps = policy_->decide(obs, 11, 64);
+    policy_->set_score_space(ScoreSpace::kSample);
+    const Decision x0 = policy_->decide(obs, 11, 64);
+    policy_->set_score_space(ScoreSpace::kTarget);
+    EXPECT_EQ(both.also[0], eps.loss) << "k " << k;
+    EXPECT_EQ(both.also[1], x0.loss) << "k " << k;
+    EXPECT_NE(both.also[0], both.loss) << "another space scores another number";
+  }
+  policy_->set_score_timesteps(0);
+}
+
 }  // namespace dd

@@ -6,6 +6,10 @@
 //   ...Torch      the same on torch's operators (the path before FastDenoiser, for the ratio)
 //   ExpectedLoss  one expected loss at N_b = 512
 //   Decision      sampling plus expected loss: what every control decision costs
+//   DiffDecision  Diff-DAgger's decision (Method::decide) with compared rules (method.compare_scores):
+//                 none; epsilon and target@4 (results/score_space/push_2experts_compare.yaml: epsilon
+//                 is scored from the decision's own rows); epsilon@8 and target@4 (two rules with rows
+//                 of their own: what that config cost before the rows were shared)
 //   ...Bf16       the same with bfloat16 products (InferencePrecision::kBFloat16, an option)
 //   EnsembleDecision  5 members sample a chunk each, side by side (...Serial: one after another)
 //   EnsembleConv  5 members' convolution forward and backward: separate, or grouped (groups = 5)
@@ -23,9 +27,12 @@
 #include <spdlog/spdlog.h>
 
 #include <memory>
+#include <string>
+#include <vector>
 
 #include "core/chunks.h"
 #include "core/ensemble.h"
+#include "core/method.h"
 #include "core/nn/bf16_gemm.h"
 #include "core/nn/mish.h"
 #include "core/nn/policy_impl.h"
@@ -128,6 +135,16 @@ void Decision(benchmark::State& state, const PolicyConfig& config, bool torch_de
   uint64_t seed = 0;
   policy.decide(obs, seed++);
   for (auto _ : state) benchmark::DoNotOptimize(policy.decide(obs, seed++, kDefaultLossSamples));
+}
+
+void DiffDecision(benchmark::State& state, const PolicyConfig& config, std::vector<std::string> compare) {
+  MethodConfig mc;
+  mc.compare_scores = std::move(compare);
+  const std::unique_ptr<Method> method = make_method("diff", config, mc, 0);
+  const Vec obs = bench_data().obs.row(0).transpose();
+  uint64_t seed = 0;
+  method->decide(obs, seed++);
+  for (auto _ : state) benchmark::DoNotOptimize(method->decide(obs, seed++));
 }
 
 // One Ensemble-DAgger decision: 5 members each sample a chunk (side by side, or one after another).
@@ -262,6 +279,9 @@ BENCHMARK_CAPTURE(Sample, 32_64_128, kCpuDefault, true)->Name("BM_SampleTorch_32
 BENCHMARK_CAPTURE(ExpectedLoss, 32_64_128, kCpuDefault)->Name("BM_ExpectedLoss_32_64_128")->Unit(benchmark::kMillisecond);
 BENCHMARK_CAPTURE(Decision, 32_64_128, kCpuDefault, false)->Name("BM_Decision_32_64_128")->Unit(benchmark::kMillisecond);
 BENCHMARK_CAPTURE(Decision, 32_64_128, kCpuDefault, true)->Name("BM_DecisionTorch_32_64_128")->Unit(benchmark::kMillisecond);
+BENCHMARK_CAPTURE(DiffDecision, 32_64_128, kCpuDefault, {})->Name("BM_DiffDecision_32_64_128")->Unit(benchmark::kMillisecond);
+BENCHMARK_CAPTURE(DiffDecision, 32_64_128, kCpuDefault, {"epsilon", "target@4"})->Name("BM_DiffDecisionCompareShared_32_64_128")->Unit(benchmark::kMillisecond);
+BENCHMARK_CAPTURE(DiffDecision, 32_64_128, kCpuDefault, {"epsilon@8", "target@4"})->Name("BM_DiffDecisionCompareOwnRows_32_64_128")->Unit(benchmark::kMillisecond);
 BENCHMARK_CAPTURE(EnsembleDecision, 32_64_128, kCpuDefault, true)->Name("BM_EnsembleDecision_32_64_128")->Unit(benchmark::kMillisecond);
 BENCHMARK_CAPTURE(EnsembleDecision, 32_64_128, kCpuDefault, false)->Name("BM_EnsembleDecisionSerial_32_64_128")->Unit(benchmark::kMillisecond);
 BENCHMARK_CAPTURE(EnsembleDecision, 64_128_256, kReference, true)->Name("BM_EnsembleDecision_64_128_256")->Unit(benchmark::kMillisecond);
