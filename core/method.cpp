@@ -68,13 +68,13 @@ class DiffMethod : public Method {
   }
 
   UpdateReport adopt(const std::vector<std::string>& checkpoints, const std::vector<Episode>& expert,
-                     const std::vector<RecordedEpisode>&) override {
+                     const std::vector<RecordedEpisode>&, const ProgressFn& progress) override {
     if (checkpoints.empty()) throw Error("diff: adopt needs a policy checkpoint");
     policy_.load(checkpoints.front());
     UpdateReport r;
     const ChunkDataset data = ChunkDataset::from_episodes(expert, policy_.config().horizon);
     r.pairs = data.size();
-    set_threshold(data, r);
+    set_threshold(data, r, progress);
     return r;
   }
 
@@ -123,13 +123,21 @@ class DiffMethod : public Method {
     DiffMethod& m_;
   };
   // The alpha-quantile of the expected loss over the training pairs (a subset when calibration_pairs),
-  // and of each compared rule's score over the same pairs.
-  void set_threshold(const ChunkDataset& data, UpdateReport& r) {
+  // and of each compared rule's score over the same pairs. `progress` counts the passes of all the
+  // rules as one: rule i's pass is the i-th of 1 + compared rules equal parts.
+  void set_threshold(const ChunkDataset& data, UpdateReport& r, const ProgressFn& progress = {}) {
     const auto t = Clock::now();
     const ChunkDataset cal = data.subset(config_.calibration_pairs, seed_ + ++updates_);
+    const int passes = 1 + static_cast<int>(compare_.size());
+    int pass = 0;
     auto quantile = [&] {
+      ProgressFn part;
+      if (progress)
+        part = [&, base = pass++](int done, int total, double value) {
+          progress(base * total + done, passes * total, value);
+        };
       const LossQuantile q = policy_.loss_quantile(cal, config_.alpha, seed_ * 31 + updates_, config_.loss_samples,
-                                                   config_.screen_threshold);
+                                                   config_.screen_threshold, part);
       spdlog::debug("diff: threshold {:.5f} over {} pairs, {} of them at {} rows (screened at {})", q.threshold, q.pairs, q.refined,
                     config_.loss_samples, q.screen_samples);
       return q.threshold;
@@ -191,8 +199,9 @@ class EnsembleMethod : public Method {
     return r;
   }
 
+  // (no progress: the threshold is one batched sampling pass of the members)
   UpdateReport adopt(const std::vector<std::string>& checkpoints, const std::vector<Episode>& expert,
-                     const std::vector<RecordedEpisode>&) override {
+                     const std::vector<RecordedEpisode>&, const ProgressFn&) override {
     if (static_cast<int>(checkpoints.size()) != ensemble_.size())
       throw Error(fmt::format("{}: adopt needs one checkpoint per member ({}), got {}", name(), ensemble_.size(), checkpoints.size()));
     for (int i = 0; i < ensemble_.size(); ++i) ensemble_.member(i).load(checkpoints[static_cast<size_t>(i)]);
@@ -257,8 +266,8 @@ class ThriftyMethod : public EnsembleMethod {
   }
 
   UpdateReport adopt(const std::vector<std::string>& checkpoints, const std::vector<Episode>& expert,
-                     const std::vector<RecordedEpisode>& robot) override {
-    UpdateReport r = EnsembleMethod::adopt(checkpoints, expert, robot);
+                     const std::vector<RecordedEpisode>& robot, const ProgressFn& progress) override {
+    UpdateReport r = EnsembleMethod::adopt(checkpoints, expert, robot, progress);
     const auto [train_s, threshold_s] = fit_risk(expert, robot);
     r.train_s += train_s;
     r.threshold_s += threshold_s;
@@ -372,7 +381,7 @@ class BcMethod : public UngatedMethod {
   }
 
   UpdateReport adopt(const std::vector<std::string>& checkpoints, const std::vector<Episode>& expert,
-                     const std::vector<RecordedEpisode>&) override {
+                     const std::vector<RecordedEpisode>&, const ProgressFn&) override {
     if (checkpoints.empty()) throw Error("bc: adopt needs a policy checkpoint");
     policy_.load(checkpoints.front());
     trained_ = true;
@@ -413,7 +422,8 @@ class PolicyActor : public UngatedMethod {
 
 }  // namespace
 
-UpdateReport Method::adopt(const std::vector<std::string>&, const std::vector<Episode>&, const std::vector<RecordedEpisode>&) {
+UpdateReport Method::adopt(const std::vector<std::string>&, const std::vector<Episode>&, const std::vector<RecordedEpisode>&,
+                           const ProgressFn&) {
   throw Error(name() + ": trains no policies of its own to adopt checkpoints into");
 }
 

@@ -102,9 +102,11 @@ class Method {
   /// then sets the threshold (and Thrifty's risk) as update() does after training. eval's RQ1 trains
   /// one ensemble per seed and gives its member 0 to Diff-DAgger: the very policy diff's own update
   /// would have trained. Throws Error naming a checkpoint that is missing or does not fit.
-  /// (The default, for methods that train nothing of their own, throws.)
+  /// `progress` follows the threshold's scoring passes where they are long enough to need it
+  /// (Diff-DAgger's: every rule's, one after another, as one count). (The default, for methods that
+  /// train nothing of their own, throws.)
   virtual UpdateReport adopt(const std::vector<std::string>& checkpoints, const std::vector<Episode>& expert,
-                             const std::vector<RecordedEpisode>& robot);
+                             const std::vector<RecordedEpisode>& robot, const ProgressFn& progress);
   /// Refits what the method learns from the robot's own rollouts, without retraining its policies:
   /// Thrifty's risk critic and its threshold gamma. Returns the seconds it took (0 for the others).
   virtual double refit_risk(const std::vector<Episode>& expert, const std::vector<RecordedEpisode>& robot) {

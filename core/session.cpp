@@ -287,7 +287,7 @@ UpdateReport DaggerSession::compute_update(const ProgressFn& progress) {
       emit(e);
     }
   };
-  return updates_ == 0 && !adopt_.empty() ? method_.adopt(adopt_, expert_data_, robot_data_)
+  return updates_ == 0 && !adopt_.empty() ? method_.adopt(adopt_, expert_data_, robot_data_, report_progress)
                                           : method_.update(expert_data_, robot_data_, train_, report_progress);
 }
 

@@ -2,6 +2,7 @@
 // worse than BC with the same expert budget, and the quick evaluation writes every report file.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <filesystem>
 #include <fstream>
 #include <set>
@@ -167,7 +168,7 @@ TEST(DaggerNav2d, SharedRq1PoliciesAreWhatEachMethodsOwnUpdateTrains) {
     auto own = make_method(name, c.policy, c.method, c.dagger.seed);
     auto adopted = make_method(name, c.policy, c.method, c.dagger.seed);
     own->update(demos, {}, rq1_training(c));
-    adopted->adopt(std::string(name) == "diff" ? std::vector<std::string>{paths[0]} : paths, demos, {});
+    adopted->adopt(std::string(name) == "diff" ? std::vector<std::string>{paths[0]} : paths, demos, {}, {});
     EXPECT_FLOAT_EQ(adopted->threshold(), own->threshold());
     for (uint64_t seed : {3u, 11u}) {
       env->reset(seed);
@@ -176,6 +177,29 @@ TEST(DaggerNav2d, SharedRq1PoliciesAreWhatEachMethodsOwnUpdateTrains) {
       EXPECT_NEAR(a.score, b.score, 1e-5f * std::abs(a.score) + 1e-8f) << "seed " << seed;
     }
   }
+
+  // Setting the thresholds shows progress over every rule's scoring pass as one count, which ends
+  // at its total; the method's own threshold is the one it sets without compared rules.
+  MethodConfig with_compared = c.method;
+  with_compared.compare_scores = {"epsilon"};
+  auto compared = make_method("diff", c.policy, with_compared, c.dagger.seed);
+  std::vector<std::pair<int, int>> calls;
+  compared->adopt({paths[0]}, demos, {}, [&](int done, int total, double) { calls.emplace_back(done, total); });
+  ASSERT_FALSE(calls.empty());
+  const int total = calls.front().second;
+  int furthest = 0;
+  for (const auto& [done, t] : calls) {
+    EXPECT_EQ(t, total) << "one count over all the passes";
+    EXPECT_GE(done, furthest) << "progress never goes back";
+    furthest = std::max(furthest, done);
+  }
+  EXPECT_EQ(calls.back().first, total);
+  EXPECT_TRUE(std::any_of(calls.begin(), calls.end(), [&](const auto& d) { return 2 * d.first < total; }) &&
+              std::any_of(calls.begin(), calls.end(), [&](const auto& d) { return 2 * d.first > total && d.first < total; }))
+      << "both passes report, each over its own half";
+  auto plain = make_method("diff", c.policy, c.method, c.dagger.seed);
+  plain->adopt({paths[0]}, demos, {}, {});
+  EXPECT_FLOAT_EQ(compared->threshold(), plain->threshold());
   fs::remove_all(dir);
 }
 

@@ -367,7 +367,10 @@ void run_eval(const ExperimentConfig& config, const EvalOptions& o) {
       const auto t = std::chrono::steady_clock::now();
       fmt::print(stderr, "[seed {}] RQ1 {:8} setting {} threshold{} over the training pairs...\n", s, name, 1 + m->compare_rules().size(),
                  m->compare_rules().empty() ? "" : "s");
-      m->adopt(policies, demos, {});
+      {
+        ProgressBar bar(fmt::format("[seed {}] RQ1 {:8} scoring training pairs", s, name), "loss");
+        m->adopt(policies, demos, {}, bar.fn());
+      }
       fmt::print(stderr, "[seed {}] RQ1 {:8} thresholds set in {:.0f} s\n", s, name,
                  std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count());
       if (method_info(name).learns_risk) {
