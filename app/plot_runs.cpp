@@ -230,7 +230,7 @@ std::vector<std::string> plot_runs(const PlotOptions& o) {
         scores.y_min = 0;
         scores.x_min = 0;
         scores.x_max = x_end;
-        scores.margin_left = ui::TimelinePanel::kMarginLeft;
+        scores.margin_left = ui::timeline_margin_left(timeline);
         scores.margin_right = ui::TimelinePanel::kMarginRight;
         panels.push_back(ui::draw_lines(scores));
       }

@@ -139,6 +139,10 @@ class Expert {
   virtual void reset(uint64_t seed) = 0;
   /// The expert's action for the env's current state.
   virtual Vec act(const Env& env) = 0;
+  /// The expert cannot finish the task from this state (a scripted expert's limit: the plugging
+  /// planner cannot right a toppled charger). The DAgger session then ends the episode as the
+  /// expert's failure at once, instead of letting it act to the time limit.
+  virtual bool gave_up(const Env& /*env*/) const { return false; }
 
   /// Noise injected while recording demonstrations (DART, Laskey et al. 2017): expert_episode executes
   /// act() plus Gaussian noise with these standard deviations, one per action component, and records

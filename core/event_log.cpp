@@ -28,7 +28,10 @@ void EventLog::operator()(const SessionEvent& e) {
     if (e.risk_q >= 0) j["risk_q"] = e.risk_q;
     if (e.reason == QueryReason::kRisk) j["reason"] = "risk";
   }
-  if (e.kind == EventKind::kEpisodeEnd) j["success"] = e.success;
+  if (e.kind == EventKind::kEpisodeEnd) {
+    j["success"] = e.success;
+    if (e.gave_up) j["gave_up"] = true;
+  }
   if (e.kind == EventKind::kUpdateFinished) {
     j["train_s"] = e.report.train_s;
     j["threshold_s"] = e.report.threshold_s;

@@ -30,17 +30,24 @@ ProgressBar::ProgressBar(std::string label, std::string value_name, std::FILE* o
       out_(out),
       tty_(isatty(fileno(out)) != 0),
       start_(std::chrono::steady_clock::now()),
+      part_start_(start_),
       last_draw_(start_) {}
 
 ProgressBar::~ProgressBar() { finish(); }
 
 void ProgressBar::update(int done, int total, double value) {
+  const auto now = std::chrono::steady_clock::now();
+  if (total_ > 0 && (total != total_ || done < done_)) {
+    if (!tty_) draw(false);  // the last part's end, before the count restarts
+    ++part_;
+    part_start_ = now;
+    base_ = 0;
+  }
   done_ = done;
   total_ = total;
   value_ = value;
-  const auto now = std::chrono::steady_clock::now();
   const double since = std::chrono::duration<double>(now - last_draw_).count();
-  if (since >= (tty_ ? 0.1 : 5.0)) {
+  if (since >= (tty_ ? 0.1 : every_s_)) {
     last_draw_ = now;
     draw(false);
   }
@@ -57,10 +64,11 @@ ProgressFn ProgressBar::fn() {
 }
 
 void ProgressBar::draw(bool final) {
-  const double elapsed =
-      std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count();
+  const auto now = std::chrono::steady_clock::now();
+  const double elapsed = std::chrono::duration<double>(now - start_).count();
   const double frac = total_ > 0 ? static_cast<double>(done_) / total_ : 0.0;
-  const double left = time_left(elapsed, base_, done_, total_);
+  const double left = time_left(std::chrono::duration<double>(now - part_start_).count(), base_, done_, total_);
+  const std::string label = part_ > 1 ? label_ + ", part " + std::to_string(part_) : label_;
   const std::string value = value_name_.empty() ? "" : "  " + value_name_ + " " + [&] {
     char b[32];
     std::snprintf(b, sizeof b, "%.4g", value_);
@@ -71,12 +79,12 @@ void ProgressBar::draw(bool final) {
     const int filled = static_cast<int>(frac * kWidth);
     std::string bar(static_cast<size_t>(filled), '#');
     bar.resize(kWidth, '.');
-    std::fprintf(out_, "\r%s [%s] %d/%d%s  %s %s\033[K", label_.c_str(), bar.c_str(), done_, total_,
+    std::fprintf(out_, "\r%s [%s] %d/%d%s  %s %s\033[K", label.c_str(), bar.c_str(), done_, total_,
                  value.c_str(), final ? "took" : "left",
                  format_duration(final ? elapsed : left).c_str());
     if (final) std::fputc('\n', out_);
   } else {
-    std::fprintf(out_, "%s %d/%d (%3.0f%%)%s  %s %s\n", label_.c_str(), done_, total_, 100 * frac,
+    std::fprintf(out_, "%s %d/%d (%3.0f%%)%s  %s %s\n", label.c_str(), done_, total_, 100 * frac,
                  value.c_str(), final ? "took" : "left",
                  format_duration(final ? elapsed : left).c_str());
   }

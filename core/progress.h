@@ -21,7 +21,9 @@ class ProgressBar {
   ProgressBar(std::string label, std::string value_name, std::FILE* out = stderr);
   ~ProgressBar();
 
-  /// Records progress; redraws at most ~10 times a second on a terminal, every 5 s otherwise.
+  /// Records progress; redraws at most ~10 times a second on a terminal, every 5 s otherwise. A
+  /// count that goes back or a new total starts the next part of the work ("part 2"): its time
+  /// left is estimated from that part alone.
   void update(int done, int total, double value);
   /// Prints the final state and a newline (once).
   void finish();
@@ -30,6 +32,13 @@ class ProgressBar {
   /// Work resumed with `done` units already done before this bar started: the time left is
   /// estimated from the rate since then, not from `done` units in no time.
   void resume_from(int done) { base_ = done; }
+  /// Plain lines, one every `every_s` seconds, even on a terminal: for long work beside other
+  /// output (eval's cells), where a redrawn bar would fight with its neighbours' lines.
+  ProgressBar& lines_every(double every_s) {
+    tty_ = false;
+    every_s_ = every_s;
+    return *this;
+  }
 
  private:
   void draw(bool final);
@@ -39,8 +48,9 @@ class ProgressBar {
   bool tty_;
   bool finished_ = false;
   int done_ = 0, total_ = 0, base_ = 0;
-  double value_ = 0.0;
-  std::chrono::steady_clock::time_point start_, last_draw_;
+  double value_ = 0.0, every_s_ = 5.0;
+  int part_ = 1;  // work in parts (training, then the threshold): the count restarts with each
+  std::chrono::steady_clock::time_point start_, part_start_, last_draw_;
 };
 
 /// Seconds left at the rate seen so far: `elapsed` seconds went to the units from `base` (done before

@@ -117,6 +117,11 @@ bool DaggerSession::tick() {
     }
   }
   const bool robot = control_ == Control::kRobot;
+  if (!robot && control_ != Control::kOperator && expert_.gave_up(env_)) {
+    expert_gave_up_ = true;  // the scripted expert cannot finish from here: its failure, now
+    end_episode();
+    return !done_;
+  }
   const Vec action = robot ? Vec(chunk_.row(chunk_pos_++).transpose()) : expert_.act(env_);
   obs_.push_back(obs);
   actions_.push_back(action);
@@ -227,6 +232,8 @@ void DaggerSession::end_episode() {
 
   SessionEvent end{EventKind::kEpisodeEnd};
   end.success = rec.success;
+  end.gave_up = expert_gave_up_;
+  expert_gave_up_ = false;
   if (expert_acted && T > 0 && flags_.front() == 0) {
     // the robot's part, up to the takeover, ends in a non-success
     const auto robot_steps = static_cast<Eigen::Index>(std::find(flags_.begin(), flags_.end(), 1) - flags_.begin());
@@ -413,7 +420,7 @@ void DaggerSession::load_state(const std::string& dir) {
   inference_s_ = j["inference_s"].get<double>();
   reports_ = std::move(reports);
   if (!reports_.empty()) gate_.set_threshold(reports_.back().threshold);
-  in_episode_ = update_pending_ = provided_ = cut_short_ = false;
+  in_episode_ = update_pending_ = provided_ = cut_short_ = expert_gave_up_ = false;
   chunk_.resize(0, 0);
   chunk_pos_ = 0;
 }

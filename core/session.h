@@ -79,6 +79,7 @@ struct SessionEvent {
   int run = 0;               // kDecision: violations in a row
   double inference_s = 0;    // kDecision: time the decision took
   bool success = false;      // kEpisodeEnd
+  bool gave_up = false;      // kEpisodeEnd: ended early because the scripted expert gave up (Expert::gave_up)
   double progress = 0;       // kUpdateProgress: 0..1
   UpdateReport report;       // kUpdateFinished
   int expert_demos = 0, interventions = 0, updates = 0;  // counts after the event
@@ -195,6 +196,7 @@ class DaggerSession {
   int chunk_pos_ = 0;
   bool provided_ = false;
   bool cut_short_ = false;  // end_episode_now() is ending this episode
+  bool expert_gave_up_ = false;  // the expert gave up (Expert::gave_up): tick() is ending this episode
   MethodDecision provided_decision_;
   double provided_seconds_ = 0;
   double inference_s_ = 0;

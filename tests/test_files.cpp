@@ -4,6 +4,8 @@
 
 #include <cmath>
 #include <chrono>
+#include <cstdio>
+#include <string>
 #include <filesystem>
 #include <vector>
 
@@ -73,6 +75,33 @@ TEST(ProgressBar, TimeLeftCountsOnlyTheUnitsDoneSinceTheBarStarted) {
   // resumed at 8000 of 16000, 100 fresh units in 20 s: 7900 to go at 5 a second, not 16 times faster
   EXPECT_DOUBLE_EQ(time_left(20, 8000, 8100, 16000), 1580);
   EXPECT_TRUE(std::isnan(time_left(5, 8000, 8000, 16000)));
+}
+
+TEST(ProgressBar, LinesNameEachPartOfWorkWhoseCountRestarts) {
+  // an update: training to 10 steps, then a threshold pass over 20 pairs, counted from 0 again
+  std::FILE* f = std::tmpfile();
+  ASSERT_NE(f, nullptr);
+  {
+    ProgressBar bar("update 2", "loss", f);
+    bar.lines_every(0);  // a line at every update
+    const ProgressFn fn = bar.fn();
+    fn(5, 10, 0.5);
+    fn(10, 10, 0.25);
+    fn(4, 20, 0.125);
+    fn(20, 20, 0.125);
+  }
+  std::rewind(f);
+  std::string out;
+  for (int c; (c = std::fgetc(f)) != EOF;) out += static_cast<char>(c);
+  std::fclose(f);
+  std::vector<std::string> lines;
+  for (size_t a = 0, b; (b = out.find('\n', a)) != std::string::npos; a = b + 1) lines.push_back(out.substr(a, b - a));
+  ASSERT_GE(lines.size(), 5u) << out;
+  EXPECT_EQ(lines[0].rfind("update 2 5/10 ( 50%)  loss 0.5  left ", 0), 0u) << lines[0];
+  EXPECT_EQ(lines[1].rfind("update 2 10/10 (100%)", 0), 0u) << lines[1];
+  EXPECT_NE(out.find("\nupdate 2, part 2 4/20 ( 20%)  loss 0.125  left "), std::string::npos) << out;
+  EXPECT_EQ(out.find("update 2 4/20"), std::string::npos) << "the second part is named: " << out;
+  EXPECT_EQ(lines.back().rfind("update 2, part 2 20/20 (100%)  loss 0.125  took ", 0), 0u) << lines.back();
 }
 
 }  // namespace dd

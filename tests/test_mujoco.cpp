@@ -283,6 +283,50 @@ TEST(Mujoco, PlugChamferWidensTheSocketsMouthAndKeepsItsClearance) {
   EXPECT_GT(PlugConfig{}.chamfer, 0.0);  // the task's default has the lead-in
 }
 
+// Poses the charger with its origin at `at` and rotation `q`, at rest, and updates the derived state.
+void pose_charger(PlugEnv& env, const Eigen::Vector3d& at, const Eigen::Quaterniond& q) {
+  mjData* d = env.mutable_data();
+  const mjModel* m = env.model();
+  const int body = mj_name2id(m, mjOBJ_BODY, "charger");
+  set_free_pose(m, d, body, at, q);
+  for (int i = 0; i < 6; ++i) d->qvel[m->jnt_dofadr[m->body_jntadr[body]] + i] = 0;
+  mj_forward(m, d);
+}
+
+TEST(Mujoco, PlugCountsOnlyAnUprightChargerAsInserted) {
+  PlugEnv env;
+  env.reset(5);
+  PlugExpert expert;
+  const double yaw = env.socket_yaw();
+  const Eigen::Vector3d seated(env.socket_pos().x(), env.socket_pos().y(), env.seated_height());
+  const Eigen::Quaterniond upright(Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ()));
+  pose_charger(env, seated, upright);
+  EXPECT_TRUE(env.inserted());
+  EXPECT_NEAR(env.charger_tilt(), 0, 1e-6);
+  EXPECT_FALSE(env.toppled());
+  EXPECT_FALSE(expert.gave_up(env));
+  // upside down, its handle on the receptacle: the origin is at the seated height, the prong in the
+  // air (RQ2 runs on plugging counted this as inserted)
+  pose_charger(env, seated, upright * Eigen::Quaterniond(Eigen::AngleAxisd(M_PI, Eigen::Vector3d::UnitX())));
+  EXPECT_FALSE(env.inserted());
+  EXPECT_NEAR(env.charger_tilt(), M_PI, 1e-6);
+  EXPECT_EQ(env.outcome(), "toppled");
+  EXPECT_TRUE(env.toppled());
+  EXPECT_TRUE(expert.gave_up(env));
+  // on its side beside the socket, at rest: toppled; the same pose while it is still falling is not yet
+  const Eigen::Vector3d beside = seated + Eigen::Vector3d(0.1, 0, 0);
+  pose_charger(env, beside, upright * Eigen::Quaterniond(Eigen::AngleAxisd(M_PI / 2, Eigen::Vector3d::UnitX())));
+  EXPECT_TRUE(env.toppled());
+  EXPECT_TRUE(expert.gave_up(env));
+  const int dof = env.model()->jnt_dofadr[env.model()->body_jntadr[mj_name2id(env.model(), mjOBJ_BODY, "charger")]];
+  env.mutable_data()->qvel[dof + 3] = 2.0;  // turning at 2 rad/s
+  EXPECT_FALSE(env.toppled());
+  // a little tilted (10 degrees), at rest: the expert goes on
+  pose_charger(env, beside, upright * Eigen::Quaterniond(Eigen::AngleAxisd(10 * M_PI / 180, Eigen::Vector3d::UnitX())));
+  EXPECT_FALSE(env.toppled());
+  EXPECT_FALSE(expert.gave_up(env));
+}
+
 TEST(Mujoco, PlugIsDeterministic) { expect_same_trajectory<PlugEnv, PlugExpert>(9, 80); }
 
 TEST(Mujoco, PushModelLoadsWithTheDeclaredSizes) {

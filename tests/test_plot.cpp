@@ -2,6 +2,8 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <string>
+#include <vector>
 
 #include "ui/plot.h"
 
@@ -13,6 +15,17 @@ int count_color(const Image& img, Rgb c, int tol = 10) {
   int n = 0;
   for (size_t p = 0; p < img.rgba.size(); p += 4)
     n += std::abs(img.rgba[p] - c[0]) <= tol && std::abs(img.rgba[p + 1] - c[1]) <= tol && std::abs(img.rgba[p + 2] - c[2]) <= tol;
+  return n;
+}
+
+// Counts dark (ink) pixels in the rectangle [x0, x1) x [y0, y1).
+int count_ink(const Image& img, int x0, int x1, int y0, int y1) {
+  int n = 0;
+  for (int y = std::max(0, y0); y < std::min(img.height, y1); ++y)
+    for (int x = std::max(0, x0); x < std::min(img.width, x1); ++x) {
+      const uint8_t* px = &img.rgba[(static_cast<size_t>(y) * img.width + x) * 4];
+      n += px[0] < 120 && px[1] < 120 && px[2] < 120;
+    }
   return n;
 }
 
@@ -82,6 +95,43 @@ TEST(Plot, LinesRiseWhereTheirValuesRise) {
       legend_red += px[0] > 240 && px[1] < 20 && px[2] < 20;
     }
   EXPECT_GT(legend_red, 10);
+}
+
+TEST(Plot, LongBarLabelsBreakAndStayUnderTheirOwnBars) {
+  EXPECT_EQ(bar_label_lines("BC", 0.5, 70), std::vector<std::string>{"BC"});
+  EXPECT_EQ(bar_label_lines("Ensemble-DAgger", 0.5, 70), (std::vector<std::string>{"Ensemble-", "DAgger"}));
+  EXPECT_EQ(bar_label_lines("one two three four", 0.5, 40).size(), 2u);  // never more than two lines
+  // figure 4's panels: three method names in 330 pixels (slots of 76 between the 80 and 20 margins)
+  BarPanel p;
+  p.title = "training";
+  p.y_label = "s";
+  p.width = 330;
+  p.categories = {"Diff-DAgger", "Ensemble-DAgger", "Thrifty-DAgger"};
+  p.values = {1, 2, 3};
+  const Image img = draw_bars(p);
+  const int slot = (p.width - 80 - 20) / 3, band_top = p.height - 60 + 4;
+  for (int i = 1; i < 3; ++i)  // no ink where one slot meets the next, under the axis
+    EXPECT_EQ(count_ink(img, 80 + slot * i - 1, 80 + slot * i + 2, band_top, img.height), 0) << i;
+  for (int i = 0; i < 3; ++i)  // but each label is written, and at least half its slot wide
+    EXPECT_GT(count_ink(img, 80 + slot * i + slot / 4, 80 + slot * i + 3 * slot / 4, band_top, img.height), 20) << i;
+}
+
+TEST(Plot, TimelineRowNamesAreNotHiddenByTheirSpans) {
+  TimelinePanel p;
+  p.title = "t";
+  p.x_label = "step";
+  p.rows = {{"Ensemble-DAgger", {}, {}}, {"Diff-DAgger", {}, {}}};
+  const Image bare = draw_timeline(p);
+  for (auto& r : p.rows) r.spans = {{0, 100, {255, 0, 0}}};  // red: no ink
+  const Image spanned = draw_timeline(p);
+  ASSERT_EQ(bare.width, spanned.width);
+  // every pixel of the names' ink is still there with the spans drawn beside them
+  const int top = 50, rows_end = top + 2 * (34 + 16);
+  EXPECT_EQ(count_ink(spanned, 0, spanned.width, top, rows_end), count_ink(bare, 0, bare.width, top, rows_end));
+  EXPECT_GT(count_ink(bare, 0, bare.width, top, rows_end), 100);
+  EXPECT_GT(timeline_margin_left(p), TimelinePanel::kMarginLeft);  // made room for the longer name
+  p.rows = {{"BC", {}, {}}};
+  EXPECT_EQ(timeline_margin_left(p), TimelinePanel::kMarginLeft);
 }
 
 }  // namespace dd::ui

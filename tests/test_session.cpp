@@ -476,6 +476,52 @@ TEST(Session, AFailedExpertEpisodeIsRecordedButNotTrainedOnOrCounted) {
   std::filesystem::remove(path);
 }
 
+// Moves forward, but gives up once x passes `at` in the episodes listed (by their count of resets).
+class GivingUpExpert : public FailingExpert {
+ public:
+  GivingUpExpert(std::vector<int> giving_up, float at) : FailingExpert({}), giving_up_(std::move(giving_up)), at_(at) {}
+  void reset(uint64_t seed) override {
+    FailingExpert::reset(seed);
+    ++episode_;
+  }
+  bool gave_up(const Env& env) const override {
+    return std::find(giving_up_.begin(), giving_up_.end(), episode_) != giving_up_.end() && env.observation()[0] >= at_;
+  }
+
+ private:
+  std::vector<int> giving_up_;
+  float at_;
+  int episode_ = 0;
+};
+
+TEST(Session, AnExpertThatGivesUpEndsItsEpisodeAtOnceAsAFailure) {
+  LineEnv env;  // goal at 10, 50 steps
+  GivingUpExpert expert({2}, 3.0f);  // the second demonstration gives up at x = 3
+  ScriptedMethod method({});
+  DaggerConfig c = small_config();
+  c.initial_demos = 2;
+  c.final_demos = 2;
+  Recorder rec;
+  DaggerSession s(env, expert, method, c, no_training());
+  s.add_observer(rec.fn());
+  run_to_end(s);
+  EXPECT_EQ(s.expert_failures(), 1);
+  EXPECT_EQ(s.expert_demos(), 2);  // not a demonstration
+  ASSERT_EQ(method.update_sizes.size(), 1u);
+  EXPECT_EQ(method.update_sizes[0], 2);  // nor trained on
+  std::vector<SessionEvent> ends;
+  for (const SessionEvent& e : rec.events)
+    if (e.kind == EventKind::kEpisodeEnd) ends.push_back(e);
+  ASSERT_EQ(ends.size(), 3u);
+  EXPECT_TRUE(ends[0].success);
+  EXPECT_FALSE(ends[0].gave_up);
+  EXPECT_FALSE(ends[1].success);
+  EXPECT_TRUE(ends[1].gave_up);
+  EXPECT_EQ(ends[1].step, 3);  // three steps forward, then it gave up: not the 50-step limit
+  EXPECT_TRUE(ends[2].success);
+  EXPECT_FALSE(ends[2].gave_up);
+}
+
 TEST(Session, TheRobotsPartOfAnInterventionIsRobotDataEndingInFailure) {
   LineEnv env;
   ForwardExpert expert;

@@ -49,6 +49,7 @@ void vertical_text(cv::Mat& m, const std::string& s, cv::Point center, double sc
 std::string fmt_num(double v) {
   char b[32];
   const double a = std::abs(v);
+  if (a == 0) return "0";
   if (a != 0 && (a < 1e-2 || a >= 1e4)) std::snprintf(b, sizeof b, "%.1e", v);
   else if (a < 1) std::snprintf(b, sizeof b, "%.3f", v);
   else if (a < 10) std::snprintf(b, sizeof b, "%.2f", v);
@@ -85,6 +86,34 @@ cv::Mat to_mat(const Image& img) {
 
 }  // namespace
 
+std::vector<std::string> bar_label_lines(const std::string& label, double scale, int max_width) {
+  if (text_width(label, scale) <= max_width) return {label};
+  // the pieces a line may break after: a space (dropped) or a hyphen (kept)
+  std::vector<std::string> pieces;
+  std::string piece;
+  for (char c : label) {
+    if (c == ' ') {
+      if (!piece.empty()) pieces.push_back(piece);
+      piece.clear();
+      continue;
+    }
+    piece += c;
+    if (c == '-') pieces.push_back(piece), piece.clear();
+  }
+  if (!piece.empty()) pieces.push_back(piece);
+  std::vector<std::string> lines;
+  for (const std::string& w : pieces) {
+    const std::string joined = lines.empty() ? w : lines.back() + (lines.back().back() == '-' ? "" : " ") + w;
+    if (!lines.empty() && text_width(joined, scale) <= max_width) lines.back() = joined;
+    else lines.push_back(w);
+  }
+  if (lines.size() <= 2) return lines;
+  // at most two lines under a bar: the rest joins the second
+  std::string rest = lines[1];
+  for (size_t k = 2; k < lines.size(); ++k) rest += (rest.back() == '-' ? "" : " ") + lines[k];
+  return {lines[0], rest};
+}
+
 Image draw_bars(const BarPanel& p) {
   cv::Mat m(p.height, p.width, CV_8UC3, cv::Scalar(255, 255, 255));
   const int left = 80, right = 20, top = 50, bottom = 60;
@@ -106,6 +135,15 @@ Image draw_bars(const BarPanel& p) {
   }
   const int n = static_cast<int>(p.values.size());
   const int slot = n ? area.width / n : area.width;
+  // Each category under its bar, broken into lines where it does not fit its slot, all at the one
+  // scale at which the widest line fits.
+  const int fit = slot - 6;
+  std::vector<std::vector<std::string>> labels;
+  double label_scale = 0.5;
+  for (const std::string& c : p.categories) labels.push_back(bar_label_lines(c, 0.5, fit));
+  for (const auto& lines : labels)
+    for (const std::string& l : lines)
+      while (label_scale > 0.3 && text_width(l, label_scale) > fit) label_scale -= 0.02;
   for (int i = 0; i < n; ++i) {
     const int cx = area.x + slot * i + slot / 2, half = slot * 3 / 10;
     const double v = std::isfinite(p.values[i]) ? p.values[i] : 0;
@@ -120,14 +158,9 @@ Image draw_bars(const BarPanel& p) {
     }
     const double err = static_cast<size_t>(i) < p.errors.size() && std::isfinite(p.errors[i]) ? p.errors[i] : 0.0;
     text(m, fmt_num(v), {cx, y_of(v + err) - 8}, 0.42, kInk, 1, true);
-    if (static_cast<size_t>(i) < p.categories.size()) {
-      // Shrink a label until it fits its slot.
-      const std::string& label = p.categories[static_cast<size_t>(i)];
-      double scale = 0.5;
-      int base = 0;
-      while (scale > 0.3 && cv::getTextSize(label, kFont, scale, 1, &base).width > slot - 6) scale -= 0.02;
-      text(m, label, {cx, area.y + area.height + 24}, scale, kInk, 1, true);
-    }
+    if (static_cast<size_t>(i) < labels.size())
+      for (size_t k = 0; k < labels[static_cast<size_t>(i)].size(); ++k)
+        text(m, labels[static_cast<size_t>(i)][k], {cx, area.y + area.height + 22 + 16 * static_cast<int>(k)}, label_scale, kInk, 1, true);
   }
   cv::line(m, {area.x, area.y}, {area.x, area.y + area.height}, kInk, 1);
   cv::line(m, {area.x, area.y + area.height}, {area.x + area.width, area.y + area.height}, kInk, 1);
@@ -316,8 +349,14 @@ Image vstack(const std::vector<Image>& images) {
   return to_image(m);
 }
 
+int timeline_margin_left(const TimelinePanel& p) {
+  int left = TimelinePanel::kMarginLeft;
+  for (const auto& r : p.rows) left = std::max(left, 8 + text_width(r.name, 0.45) + 12);
+  return left;
+}
+
 Image draw_timeline(const TimelinePanel& p) {
-  const int left = TimelinePanel::kMarginLeft, right = TimelinePanel::kMarginRight, top = 50, row_h = 34, gap = 16, axis_h = 50;
+  const int left = timeline_margin_left(p), right = TimelinePanel::kMarginRight, top = 50, row_h = 34, gap = 16, axis_h = 50;
   const int rows = static_cast<int>(p.rows.size());
   const int legend_h = 30;
   const int height = top + rows * (row_h + gap) + axis_h + legend_h;

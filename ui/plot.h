@@ -24,6 +24,9 @@ struct BarPanel {
   int width = 520, height = 420;
 };
 Image draw_bars(const BarPanel& panel);
+/// How draw_bars writes a category under its bar: whole when it fits `max_width` pixels at `scale`,
+/// else broken after spaces and hyphens into at most two lines ("Ensemble-" / "DAgger").
+std::vector<std::string> bar_label_lines(const std::string& label, double scale, int max_width);
 
 /// A line chart: one polyline with markers per series, a legend, and an optional fixed y range.
 struct LineSeries {
@@ -87,8 +90,11 @@ struct TimelinePanel {
   std::vector<std::pair<std::string, Rgb>> legend;
   double x_max = NAN;               // NaN: the data's end, rounded up to a tick
   int width = 900;
-  static constexpr int kMarginLeft = 110, kMarginRight = 30;
+  static constexpr int kMarginLeft = 110, kMarginRight = 30;  // at least; wider for long row names
 };
+/// The x of the panel's time axis' origin: kMarginLeft, or more where a row's name needs it (to line
+/// another panel up with the timeline).
+int timeline_margin_left(const TimelinePanel& panel);
 Image draw_timeline(const TimelinePanel& panel);
 
 }  // namespace dd::ui

@@ -135,7 +135,8 @@ DaggerRunResult run_dagger(const ExperimentConfig& config, const DaggerRunOption
     if (e.kind == EventKind::kQuery) ++result.queries;
     if (e.kind == EventKind::kTimeout) ++result.timeouts;
     if (e.kind == EventKind::kEpisodeEnd && !o.quiet) {
-      const char* how = e.control == Control::kRobot ? (e.success ? "robot succeeded" : "robot failed")
+      const char* how = e.gave_up ? "the expert gave up"
+                        : e.control == Control::kRobot ? (e.success ? "robot succeeded" : "robot failed")
                         : e.control == Control::kExpertDemo ? "expert demonstration"
                         : e.control == Control::kExpertQuery ? "robot asked, expert finished"
                                                              : "time limit, expert finished";
@@ -148,8 +149,11 @@ DaggerRunResult run_dagger(const ExperimentConfig& config, const DaggerRunOption
     if (session.update_pending()) {
       const double inference = session.inference_s_since_update();
       {
-        ProgressBar bar(fmt::format("update {} ({} demos)", session.updates() + 1, session.expert_demos()), "loss");
-        session.run_update(o.quiet ? ProgressFn{} : bar.fn());
+        // eval's cells (quiet, labelled): a plain line every 5 minutes, so that an update of an hour
+        // or more shows its progress in the cell's log
+        ProgressBar bar(fmt::format("{}update {} ({} demos)", prefix, session.updates() + 1, session.expert_demos()), "loss");
+        if (o.quiet && !o.label.empty()) bar.lines_every(300);
+        session.run_update(o.quiet && o.label.empty() ? ProgressFn{} : bar.fn());
       }
       const UpdateReport& r = session.reports().back();
       if (session.updates() > 1) result.iteration_inference_s.push_back(inference);

@@ -2,6 +2,7 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <cmath>
 #include <random>
 
@@ -123,11 +124,23 @@ double PlugEnv::charger_yaw() const {
 
 bool PlugEnv::inserted() const {
   const Eigen::Vector3d c = charger_pos(), s = socket_pos();
-  return (c.head<2>() - s.head<2>()).norm() < 0.002 && c.z() < seated_height() + 0.003;
+  return (c.head<2>() - s.head<2>()).norm() < 0.002 && c.z() < seated_height() + 0.003 && charger_tilt() < 10 * M_PI / 180;
+}
+
+double PlugEnv::charger_tilt() const {
+  const Eigen::Vector3d z = free_quat(model(), data(), charger_).toRotationMatrix().col(2);
+  return std::acos(std::clamp(z.z(), -1.0, 1.0));
+}
+
+bool PlugEnv::toppled() const {
+  const double* v = data()->qvel + model()->jnt_dofadr[model()->body_jntadr[charger_]];
+  const double linear = Eigen::Map<const Eigen::Vector3d>(v).norm(), angular = Eigen::Map<const Eigen::Vector3d>(v + 3).norm();
+  return charger_tilt() > kToppled && linear < 0.02 && angular < 0.5;
 }
 
 std::string PlugEnv::outcome() const {
   if (success()) return "success";
+  if (charger_tilt() > kToppled) return "toppled";
   const Eigen::Vector3d c = charger_pos();
   if ((c.head<2>() - socket_pos().head<2>()).norm() < 0.01) return "over the socket";
   if ((arm().tcp_pos(data()) - c).norm() < 0.04 && c.z() > seated_height() + 0.01) return "held";

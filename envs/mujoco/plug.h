@@ -9,8 +9,11 @@
 //                     charger minus TCP (3), socket minus charger (3)
 //   action      (10): TCP position (3), TCP 6-D rotation (6), gripper (0 open .. 1 closed)
 //   success: fully inserted: the charger's handle rests on the receptacle (within 3 mm of the seated
-//            height) with the prong centred in the socket (within 2 mm)
+//            height) with the prong centred in the socket (within 2 mm), the charger upright (within
+//            10 degrees; upside down, its handle rests at the same height with the prong in the air)
 #pragma once
+
+#include <cmath>
 
 #include "envs/mujoco/arm_env.h"
 
@@ -41,7 +44,12 @@ class PlugEnv : public ArmEnv {
   /// The charger origin's height when fully inserted.
   double seated_height() const;
   bool inserted() const;
-  /// success; "over the socket" (within 1 cm, not seated); "held"; "in the dock"; "dropped".
+  /// The angle between the charger's axis (prong down) and the vertical [rad]: 0 standing, pi/2 on its side.
+  double charger_tilt() const;
+  /// Knocked over and lying still: tilted more than kToppled and at rest.
+  bool toppled() const;
+  static constexpr double kToppled = 20 * M_PI / 180;  // the expert's demonstrations stay under 3 degrees
+  /// success; "toppled"; "over the socket" (within 1 cm, not seated); "held"; "in the dock"; "dropped".
   std::string outcome() const override;
 
  protected:

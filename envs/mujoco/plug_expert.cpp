@@ -4,6 +4,11 @@
 
 namespace dd::mj {
 
+bool PlugExpert::gave_up(const Env& base) const {
+  const auto* env = dynamic_cast<const PlugEnv*>(&base);
+  return env && env->toppled();
+}
+
 PickPlaceState PlugExpert::read(const ArmEnv& base) const {
   const auto* env = dynamic_cast<const PlugEnv*>(&base);
   if (!env) throw Error("plug expert: the env is not a PlugEnv");

@@ -15,6 +15,9 @@ class PlugExpert : public PickPlaceExpert {
  public:
   std::string name() const override { return detour > 0 ? "plug_detour" : "plug_planner"; }
 
+  /// The charger lies toppled: the planner grasps it only standing.
+  bool gave_up(const Env& env) const override;
+
  protected:
   PickPlaceState read(const ArmEnv& env) const override;
 };
