@@ -63,7 +63,7 @@ class DiffMethod : public Method {
     if (train_config.from_scratch && updates_ > 0) policy_.reinitialize(seed_ + 7919 * updates_);
     r.final_loss = train(policy_, data, train_config, progress).last_mean();
     r.train_s = since(t);
-    set_threshold(data, r);
+    set_threshold(data, r, progress);  // a second count after training's (ProgressBar shows it as "part 2")
     return r;
   }
 

@@ -167,7 +167,15 @@ TEST(DaggerNav2d, SharedRq1PoliciesAreWhatEachMethodsOwnUpdateTrains) {
     SCOPED_TRACE(name);
     auto own = make_method(name, c.policy, c.method, c.dagger.seed);
     auto adopted = make_method(name, c.policy, c.method, c.dagger.seed);
-    own->update(demos, {}, rq1_training(c));
+    // an update shows progress through its training and then through its threshold's scoring pass
+    std::vector<std::pair<int, int>> parts;  // (last done, total) of each part
+    own->update(demos, {}, rq1_training(c), [&](int done, int total, double) {
+      if (parts.empty() || parts.back().second != total || done < parts.back().first) parts.emplace_back(done, total);
+      parts.back().first = done;
+    });
+    ASSERT_EQ(parts.size(), 2u) << "training, then the threshold";
+    EXPECT_EQ(parts[0], std::make_pair(rq1_training(c).steps, rq1_training(c).steps));
+    EXPECT_EQ(parts[1].first, parts[1].second) << "the threshold's pass ends at its total";
     adopted->adopt(std::string(name) == "diff" ? std::vector<std::string>{paths[0]} : paths, demos, {}, {});
     EXPECT_FLOAT_EQ(adopted->threshold(), own->threshold());
     for (uint64_t seed : {3u, 11u}) {
