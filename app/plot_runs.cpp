@@ -82,8 +82,12 @@ Iterations iterations(const Run& r) {
   return it;
 }
 
-// Whether the run's method decides whether to ask (every method but BC).
+// Whether the run's method decides whether to ask: every method but BC. Decided by the method's name,
+// not by the log: a run stopped right after its first update has no decision yet, and is no BC. A lone
+// dagger run's folder is named by its user; there the log's decisions tell.
 bool asks(const Run& r) {
+  const std::vector<std::string> known = method_names();
+  if (std::find(known.begin(), known.end(), r.method) != known.end()) return r.method != "bc";
   return std::any_of(r.events.begin(), r.events.end(), [](const json& e) { return e["event"] == "decision"; });
 }
 
@@ -125,7 +129,7 @@ std::vector<std::string> plot_runs(const PlotOptions& o) {
 
   // Figure 4: mean wall-clock per iteration and its spread over iterations, per method.
   {
-    std::string csv = "method,iterations,train_s,train_std,threshold_s,threshold_std,inference_s,inference_std,total_s\n", not_drawn;
+    std::string csv = "method,asks,iterations,train_s,train_std,threshold_s,threshold_std,inference_s,inference_std,total_s\n", not_drawn;
     ui::BarPanel panels[4];
     const char* titles[4] = {"training", "threshold setting", "inference", "total"};
     for (int k = 0; k < 4; ++k) {
@@ -140,8 +144,8 @@ std::vector<std::string> plot_runs(const PlotOptions& o) {
       const auto [th, th_sd] = mean_and_std(it.threshold);
       const auto [in, in_sd] = it.inference.empty() ? std::pair<double, double>{0, 0} : mean_and_std(it.inference);
       const double values[4] = {tr, th, in, tr + th + in}, errors[4] = {tr_sd, th_sd, in_sd, 0};
-      csv += fmt::format("{},{},{:.4f},{:.4f},{:.4f},{:.4f},{:.4f},{:.4f},{:.4f}\n", r.method, it.train.size(), tr, tr_sd, th, th_sd, in,
-                         in_sd, tr + th + in);
+      csv += fmt::format("{},{},{},{:.4f},{:.4f},{:.4f},{:.4f},{:.4f},{:.4f},{:.4f}\n", r.method, asks(r) ? "yes" : "no", it.train.size(), tr,
+                         tr_sd, th, th_sd, in, in_sd, tr + th + in);
       if (!asks(r)) {
         // BC trains once, on its N_f demonstrations, and never asks: it has no iterations to draw
         not_drawn += fmt::format("; {} trained once ({:.0f} s), not drawn", method_title(r.method), tr);

@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <set>
 #include <sstream>
 
@@ -282,6 +283,33 @@ TEST(DaggerNav2d, QuickEvaluationWritesEveryFile) {
   std::set<std::string> methods;
   while (std::getline(wallclock, line)) methods.insert(line.substr(0, line.find(',')));
   EXPECT_EQ(methods, (std::set<std::string>{"diff", "ensemble", "thrifty", "bc"}));
+  // a run stopped right after its first update has no decision yet: it is still a method that asks,
+  // drawn in figure 4, and only BC is not
+  {
+    const std::string log = e.out + "/runs/thrifty_seed0/queries.jsonl";
+    std::ifstream in(log);
+    std::string kept;
+    for (std::string l; std::getline(in, l);) {
+      kept += l + "\n";
+      if (l.find("\"update_finished\"") != std::string::npos) break;
+    }
+    in.close();
+    ASSERT_EQ(kept.find("\"decision\""), std::string::npos);
+    const std::string full = read_text(log);
+    write_text(log, kept);
+    plot_runs(p);
+    std::map<std::string, std::string> asks;
+    std::ifstream w(e.out + "/wallclock.csv");
+    std::getline(w, header);
+    EXPECT_EQ(header.rfind("method,asks,iterations,", 0), 0u) << header;
+    while (std::getline(w, line)) {
+      const size_t a = line.find(','), b = line.find(',', a + 1);
+      asks[line.substr(0, a)] = line.substr(a + 1, b - a - 1);
+    }
+    EXPECT_EQ(asks, (std::map<std::string, std::string>{{"diff", "yes"}, {"ensemble", "yes"}, {"thrifty", "yes"}, {"bc", "no"}}));
+    write_text(log, full);
+    plot_runs(p);
+  }
   std::ifstream episode(e.out + "/episode.csv");
   std::getline(episode, header);
   std::set<std::string> rows_of;

@@ -7,6 +7,7 @@
 #include <cstdio>
 #include <cstring>
 #include <functional>
+#include <map>
 #include <random>
 
 #include "core/config.h"
@@ -288,8 +289,7 @@ void pose_charger(PlugEnv& env, const Eigen::Vector3d& at, const Eigen::Quaterni
   mjData* d = env.mutable_data();
   const mjModel* m = env.model();
   const int body = mj_name2id(m, mjOBJ_BODY, "charger");
-  set_free_pose(m, d, body, at, q);
-  for (int i = 0; i < 6; ++i) d->qvel[m->jnt_dofadr[m->body_jntadr[body]] + i] = 0;
+  set_free_pose(m, d, body, at, q);  // at rest
   mj_forward(m, d);
 }
 
@@ -318,13 +318,45 @@ TEST(Mujoco, PlugCountsOnlyAnUprightChargerAsInserted) {
   pose_charger(env, beside, upright * Eigen::Quaterniond(Eigen::AngleAxisd(M_PI / 2, Eigen::Vector3d::UnitX())));
   EXPECT_TRUE(env.toppled());
   EXPECT_TRUE(expert.gave_up(env));
-  const int dof = env.model()->jnt_dofadr[env.model()->body_jntadr[mj_name2id(env.model(), mjOBJ_BODY, "charger")]];
-  env.mutable_data()->qvel[dof + 3] = 2.0;  // turning at 2 rad/s
+  Eigen::Matrix<double, 6, 1> turning = Eigen::Matrix<double, 6, 1>::Zero();
+  turning[3] = 2.0;  // 2 rad/s
+  set_free_vel(env.model(), env.mutable_data(), mj_name2id(env.model(), mjOBJ_BODY, "charger"), turning);
   EXPECT_FALSE(env.toppled());
   // a little tilted (10 degrees), at rest: the expert goes on
   pose_charger(env, beside, upright * Eigen::Quaterniond(Eigen::AngleAxisd(10 * M_PI / 180, Eigen::Vector3d::UnitX())));
   EXPECT_FALSE(env.toppled());
   EXPECT_FALSE(expert.gave_up(env));
+}
+
+// The charger's tilt [rad] after a sideways push of `newtons` at its centre of mass for 0.3 s and 1 s
+// to settle, standing in its dock or, with `in_dock` false, free on the table 12 cm beside it. The arm
+// holds its pose above.
+double tilt_after_push(bool in_dock, double newtons) {
+  PlugEnv env;
+  env.reset(11);
+  const mjModel* m = env.model();
+  mjData* d = env.mutable_data();
+  const int body = mj_name2id(m, mjOBJ_BODY, "charger");
+  if (!in_dock) pose_charger(env, env.charger_pos() - Eigen::Vector3d(0, 0.12, 0), Eigen::Quaterniond::Identity());
+  Vec hold(10);
+  hold.head<3>() = env.arm().tcp_pos(d).cast<float>();
+  hold.segment<6>(3) = rot6d(tool_down(0)).cast<float>();
+  hold[9] = 0;
+  for (int t = 0; t < 26; ++t) {
+    d->xfrc_applied[6 * body] = t < 6 ? newtons : 0.0;  // 20 Hz control: 6 steps are 0.3 s
+    env.step(hold);
+  }
+  return env.charger_tilt();
+}
+
+TEST(Mujoco, PlugDockHoldsTheChargerUprightWhereTheTableWouldNot) {
+  // the push tips a charger standing free (its centre of mass is 39 mm up, its prong 18 mm wide)
+  EXPECT_GT(tilt_after_push(false, 0.3), PlugEnv::kToppled);
+  // in the dock the prong meets a wall after about 2 degrees, and the charger settles back upright
+  EXPECT_LT(tilt_after_push(true, 0.3), 3 * M_PI / 180);
+  EXPECT_LT(tilt_after_push(true, 1.0), 3 * M_PI / 180);
+  // with 1 mm to spare a side, as the socket
+  EXPECT_NEAR(PlugConfig{}.dock_half - PlugConfig{}.prong_half, 0.001, 1e-9);
 }
 
 TEST(Mujoco, PlugIsDeterministic) { expect_same_trajectory<PlugEnv, PlugExpert>(9, 80); }
@@ -568,3 +600,4 @@ TEST(TaskRegistry, EveryRowBuildsItsEnvExpertsAndTeleoperationToMatchItsPreset) 
 }
 
 }  // namespace dd
+

@@ -101,16 +101,17 @@ std::vector<std::string> bar_label_lines(const std::string& label, double scale,
     if (c == '-') pieces.push_back(piece), piece.clear();
   }
   if (!piece.empty()) pieces.push_back(piece);
+  // a line and the next piece: a space between them unless the line ends in its hyphen
+  auto join = [](const std::string& line, const std::string& next) { return line + (line.back() == '-' ? "" : " ") + next; };
   std::vector<std::string> lines;
   for (const std::string& w : pieces) {
-    const std::string joined = lines.empty() ? w : lines.back() + (lines.back().back() == '-' ? "" : " ") + w;
-    if (!lines.empty() && text_width(joined, scale) <= max_width) lines.back() = joined;
+    if (!lines.empty() && text_width(join(lines.back(), w), scale) <= max_width) lines.back() = join(lines.back(), w);
     else lines.push_back(w);
   }
   if (lines.size() <= 2) return lines;
   // at most two lines under a bar: the rest joins the second
   std::string rest = lines[1];
-  for (size_t k = 2; k < lines.size(); ++k) rest += (rest.back() == '-' ? "" : " ") + lines[k];
+  for (size_t k = 2; k < lines.size(); ++k) rest = join(rest, lines[k]);
   return {lines[0], rest};
 }
 

@@ -92,8 +92,15 @@ void set_free_pose(const mjModel* m, mjData* d, int body, const Eigen::Vector3d&
   d->qpos[a + 4] = q.x();
   d->qpos[a + 5] = q.y();
   d->qpos[a + 6] = q.z();
-  const int v = m->jnt_dofadr[m->body_jntadr[body]];
-  for (int i = 0; i < 6; ++i) d->qvel[v + i] = 0;
+  set_free_vel(m, d, body, Eigen::Matrix<double, 6, 1>::Zero());
+}
+
+Eigen::Matrix<double, 6, 1> free_vel(const mjModel* m, const mjData* d, int body) {
+  return Eigen::Map<const Eigen::Matrix<double, 6, 1>>(d->qvel + m->jnt_dofadr[m->body_jntadr[body]]);
+}
+
+void set_free_vel(const mjModel* m, mjData* d, int body, const Eigen::Matrix<double, 6, 1>& v) {
+  Eigen::Map<Eigen::Matrix<double, 6, 1>>(d->qvel + m->jnt_dofadr[m->body_jntadr[body]]) = v;
 }
 
 bool state_ok(const mjModel* m, const mjData* d) {

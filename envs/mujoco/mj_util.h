@@ -41,7 +41,11 @@ Eigen::Matrix3d site_rot(const mjModel* m, const mjData* d, int site);
 /// A free body's position and quaternion (w, x, y, z) from qpos.
 Eigen::Vector3d free_pos(const mjModel* m, const mjData* d, int body);
 Eigen::Quaterniond free_quat(const mjModel* m, const mjData* d, int body);
+/// Places a free body at rest.
 void set_free_pose(const mjModel* m, mjData* d, int body, const Eigen::Vector3d& p, const Eigen::Quaterniond& q);
+/// A free body's velocity from qvel: linear (world frame), then angular (body frame), as MuJoCo keeps it.
+Eigen::Matrix<double, 6, 1> free_vel(const mjModel* m, const mjData* d, int body);
+void set_free_vel(const mjModel* m, mjData* d, int body, const Eigen::Matrix<double, 6, 1>& v);
 
 /// True if every entry of qpos and qvel is finite and MuJoCo raised no instability warning.
 bool state_ok(const mjModel* m, const mjData* d);

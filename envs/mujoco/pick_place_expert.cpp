@@ -140,9 +140,18 @@ Vec PickPlaceExpert::act(const Env& base) {
     if (!lowering_ && (s.object.head<2>() - s.place.head<2>()).norm() > 0.02 && s.object.z() < s.place.z() + s.lift) {
       // lift straight up out of wherever the object was before moving across
       if (!have_target_) target_ = tcp;
-      target_ = Eigen::Vector3d(tcp.x(), tcp.y(), std::min(target_.z(), tcp.z() + 0.02) + slow);
+      if (!s.plumb_lift) {
+        target_ = Eigen::Vector3d(tcp.x(), tcp.y(), std::min(target_.z(), tcp.z() + 0.02) + slow);
+        path_goal_ = {1e9, 0, 0};
+        return command(target_, R, 1.0);
+      }
+      // plumb, out of a snug hole: the commanded xy stays where the lift began (unless the TCP is a
+      // centimetre off it, taking over mid-episode), and the object is not turned until it is out. A
+      // TCP pushed aside by the contact, or a turn, wedges the prong and levers it out sideways.
+      if ((target_.head<2>() - tcp.head<2>()).norm() > 0.01) target_ = tcp;
+      target_ = Eigen::Vector3d(target_.x(), target_.y(), std::min(target_.z(), tcp.z() + 0.02) + slow);
       path_goal_ = {1e9, 0, 0};
-      return command(target_, R, 1.0);
+      return command(target_, tool_down(tool), 1.0);
     }
     if (!lowering_) {
       const Eigen::Vector3d goal = via_detour(tcp, above, hover_detour_, hover_detoured_);

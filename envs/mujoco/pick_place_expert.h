@@ -31,6 +31,7 @@ struct PickPlaceState {
   double approach = 0.08;           // height above `place` from which it is lowered [m]
   double lower_speed = 0.006;       // lowering speed [m per step]
   double lift = 0.06;               // after grasping, rise straight up until this high above `place` [m]
+  bool plumb_lift = false;          // lift without following the TCP's drift or turning (out of a snug hole)
   bool placed = false;              // the object is in place (time to let go)
   std::vector<Box3> obstacles;      // to plan around (the carried object's size is added)
   double hang = 0.03;               // how far the carried object hangs below the TCP [m]

@@ -11,7 +11,6 @@ namespace {
 constexpr double kWall = 0.035;       // socket depth and receptacle height [m]
 constexpr double kHandleHalfZ = 0.015;
 constexpr double kProngHalfZ = 0.015;
-constexpr double kDockWall = 0.02;
 constexpr double kEighthTurn = M_PI / 4;  // the scene compiles angles in radians
 
 // Four walls of height h around a square hole of half-width `hole`, walls `thick` thick. With a
@@ -51,8 +50,8 @@ std::string walled_hole(double hole, double thick, double h, const char* materia
 }  // namespace
 
 std::string plug_xml(const PlugConfig& c) {
-  // the receptacle and the dock are mocap bodies: fixed in the physics, placed per episode; the dock's
-  // hole (14 mm half-width) holds the prong loosely
+  // the receptacle and the dock are mocap bodies: fixed in the physics, placed per episode; the dock
+  // holds the prong as the socket does, 1 mm a side
   const std::string bodies = fmt::format(R"(    <body name="receptacle" mocap="true" pos="0.5 0.15 0">
 {receptacle}      <site name="socket" pos="0 0 0" size="0.004" rgba="1 1 0 0.5" group="2"/>
     </body>
@@ -65,7 +64,7 @@ std::string plug_xml(const PlugConfig& c) {
     </body>
 )",
                                          fmt::arg("receptacle", walled_hole(c.socket_half, 0.03, kWall, "blue", c.chamfer)),
-                                         fmt::arg("dock", walled_hole(0.014, 0.012, kDockWall, "dark")), fmt::arg("hh", c.handle_half),
+                                         fmt::arg("dock", walled_hole(c.dock_half, PlugEnv::kDockWallThick, PlugEnv::kDockWallHeight, "dark")), fmt::arg("hh", c.handle_half),
                                          fmt::arg("hz", kHandleHalfZ), fmt::arg("pz2", kHandleHalfZ + kProngHalfZ),
                                          fmt::arg("ph", c.prong_half), fmt::arg("pz", kProngHalfZ));
   return arm_scene_xml("plug", Tool::kGripper, c.camera_size, side_cameras_xml() + overview_camera_xml(), bodies);
@@ -133,9 +132,8 @@ double PlugEnv::charger_tilt() const {
 }
 
 bool PlugEnv::toppled() const {
-  const double* v = data()->qvel + model()->jnt_dofadr[model()->body_jntadr[charger_]];
-  const double linear = Eigen::Map<const Eigen::Vector3d>(v).norm(), angular = Eigen::Map<const Eigen::Vector3d>(v + 3).norm();
-  return charger_tilt() > kToppled && linear < 0.02 && angular < 0.5;
+  const Eigen::Matrix<double, 6, 1> v = free_vel(model(), data(), charger_);
+  return charger_tilt() > kToppled && v.head<3>().norm() < 0.02 && v.tail<3>().norm() < 0.5;
 }
 
 std::string PlugEnv::outcome() const {

@@ -20,14 +20,15 @@ PickPlaceState PlugExpert::read(const ArmEnv& base) const {
   s.place = {socket.x(), socket.y(), env->seated_height()};
   s.place_yaw = env->socket_yaw();
   s.align_yaw = true;
+  s.plumb_lift = true;  // the dock holds the prong with 1 mm to spare
   s.approach = 0.05;
   s.lower_speed = 0.003;
   s.placed = env->inserted();
   const double m = 0.04 + 0.03;  // receptacle outer half-width and a margin
   s.obstacles.push_back({{socket.x() - m, socket.y() - m, -1}, {socket.x() + m, socket.y() + m, 0.035}});
   const Eigen::Vector3d dock = env->dock_pos();
-  const double n = 0.026 + 0.03;  // dock outer half-width and a margin
-  s.obstacles.push_back({{dock.x() - n, dock.y() - n, -1}, {dock.x() + n, dock.y() + n, 0.02}});
+  const double n = env->dock_outer_half() + 0.03;  // and a margin
+  s.obstacles.push_back({{dock.x() - n, dock.y() - n, -1}, {dock.x() + n, dock.y() + n, PlugEnv::kDockWallHeight}});
   s.hang = 0.045;
   return s;
 }
