@@ -47,7 +47,8 @@ std::vector<json> read_events(const std::string& path) {
   return out;
 }
 
-const ui::Rgb kRobot{60, 110, 210}, kQuery{235, 120, 50}, kTimeout{200, 60, 60}, kDemo{80, 160, 90}, kOperator{150, 90, 190};
+const ui::Rgb kRobot{60, 110, 210}, kQuery{235, 120, 50}, kTimeout{200, 60, 60}, kDemo{80, 160, 90}, kOperator{150, 90, 190},
+    kGaveUp{120, 72, 40};
 
 ui::Rgb control_color(const std::string& control) {
   if (control == "robot") return kRobot;
@@ -187,6 +188,7 @@ std::vector<std::string> plot_runs(const PlotOptions& o) {
     scores.height = 300;
     std::string csv = "method,step,event,control,score,threshold\n";
     double last_step = 0;
+    bool any_gave_up = false;
     for (const Run& r : runs) {
       if (!asks(r)) continue;  // BC never decides whether to ask: it has no row here
       ui::TimelineRow row;
@@ -207,7 +209,11 @@ std::vector<std::string> plot_runs(const PlotOptions& o) {
           control = c;
           from = 0;
         } else if (kind == "takeover" || kind == "hand_back" || kind == "episode_end") {
-          row.spans.push_back({from, step, control_color(control)});
+          // a scripted expert that gave up (plugging: the charger lies toppled) ends the episode:
+          // its last span gets its own colour
+          const bool gave_up = kind == "episode_end" && e.value("gave_up", false);
+          row.spans.push_back({from, step, gave_up ? kGaveUp : control_color(control)});
+          any_gave_up = any_gave_up || gave_up;
           control = c;
           from = step;
         } else if (kind == "query") {
@@ -224,6 +230,7 @@ std::vector<std::string> plot_runs(const PlotOptions& o) {
       timeline.rows.push_back(std::move(row));
       if (!ratio.x.empty()) scores.series.push_back(std::move(ratio));
     }
+    if (any_gave_up) timeline.legend.push_back({"expert, then gave up", kGaveUp});
     if (!timeline.rows.empty()) {
       // both panels on one time axis, the episode's end rounded up to a multiple of 10 steps
       const double x_end = std::max(10.0, std::ceil(last_step / 10) * 10);

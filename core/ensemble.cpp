@@ -146,9 +146,16 @@ std::pair<float, float> spread_of(const std::vector<std::vector<Mat>>& samples, 
 
 }  // namespace
 
-std::vector<std::vector<Mat>> PolicyEnsemble::sample_members(const Mat& obs, uint64_t seed) const {
+std::vector<std::vector<Mat>> PolicyEnsemble::sample_members(const Mat& obs, uint64_t seed, const ProgressFn& progress) const {
   std::vector<std::vector<Mat>> samples(members_.size());  // [member][row]
-  auto sample = [&](int64_t m) { samples[static_cast<size_t>(m)] = members_[static_cast<size_t>(m)]->sample_batch(obs, seed + static_cast<uint64_t>(m)); };
+  std::mutex progress_mutex;
+  int sampled = 0;
+  auto sample = [&](int64_t m) {
+    samples[static_cast<size_t>(m)] = members_[static_cast<size_t>(m)]->sample_batch(obs, seed + static_cast<uint64_t>(m));
+    if (!progress) return;
+    std::lock_guard<std::mutex> lock(progress_mutex);
+    progress(++sampled, size(), NAN);
+  };
   if (parallel_members_) {
     // One member per thread, each single-threaded inside (torch and OpenBLAS run serially in a
     // parallel region): small batches keep one core busy better than two.
@@ -161,8 +168,8 @@ std::vector<std::vector<Mat>> PolicyEnsemble::sample_members(const Mat& obs, uin
   return samples;
 }
 
-std::vector<std::vector<float>> PolicyEnsemble::spread(const Mat& obs, uint64_t seed) const {
-  const std::vector<std::vector<Mat>> samples = sample_members(obs, seed);
+std::vector<std::vector<float>> PolicyEnsemble::spread(const Mat& obs, uint64_t seed, const ProgressFn& progress) const {
+  const std::vector<std::vector<Mat>> samples = sample_members(obs, seed, progress);
   std::vector<std::vector<float>> out(2, std::vector<float>(static_cast<size_t>(obs.rows())));
   for (size_t b = 0; b < out[0].size(); ++b) std::tie(out[0][b], out[1][b]) = spread_of(samples, b);
   return out;
@@ -178,6 +185,8 @@ PolicyEnsemble::Decision PolicyEnsemble::decide(const Vec& obs, uint64_t seed) c
 
 std::vector<float> PolicyEnsemble::action_std(const Mat& obs, uint64_t seed) const { return spread(obs, seed)[0]; }
 
-std::vector<float> PolicyEnsemble::action_variance(const Mat& obs, uint64_t seed) const { return spread(obs, seed)[1]; }
+std::vector<float> PolicyEnsemble::action_variance(const Mat& obs, uint64_t seed, const ProgressFn& progress) const {
+  return spread(obs, seed, progress)[1];
+}
 
 }  // namespace dd

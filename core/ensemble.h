@@ -41,8 +41,9 @@ class PolicyEnsemble {
   /// standard deviation across members of every chunk element, averaged over time and action
   /// dimensions (raw action units).
   std::vector<float> action_std(const Mat& obs, uint64_t seed) const;
-  /// Same, as a variance (the mean over elements of the across-member variance).
-  std::vector<float> action_variance(const Mat& obs, uint64_t seed) const;
+  /// Same, as a variance (the mean over elements of the across-member variance). `progress` counts
+  /// the members that have sampled (value NaN): a threshold pass over thousands of pairs takes minutes.
+  std::vector<float> action_variance(const Mat& obs, uint64_t seed, const ProgressFn& progress = {}) const;
 
   /// One control decision: every member generates a chunk for `obs`; the first member's chunk (the
   /// member trained on all the data) is the one executed, and the spread of all of them is the uncertainty.
@@ -66,8 +67,8 @@ class PolicyEnsemble {
  private:
   void train_in_children(const std::vector<std::vector<Episode>>& data, const TrainConfig& config, int total,
                          const ProgressFn& progress, std::vector<TrainStats>& stats);
-  std::vector<std::vector<Mat>> sample_members(const Mat& obs, uint64_t seed) const;  // [member][row]
-  std::vector<std::vector<float>> spread(const Mat& obs, uint64_t seed) const;  // [0]: std, [1]: var
+  std::vector<std::vector<Mat>> sample_members(const Mat& obs, uint64_t seed, const ProgressFn& progress = {}) const;  // [member][row]
+  std::vector<std::vector<float>> spread(const Mat& obs, uint64_t seed, const ProgressFn& progress = {}) const;  // [0]: std, [1]: var
   std::vector<std::unique_ptr<DiffusionPolicy>> members_;
   uint64_t seed_;
   bool parallel_members_ = true;

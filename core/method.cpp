@@ -195,20 +195,19 @@ class EnsembleMethod : public Method {
     const auto stats = ensemble_.train(expert, train_config, progress);
     r.final_loss = stats.front().last_mean();
     r.train_s = since(t);
-    set_threshold(data, r);
+    set_threshold(data, r, progress);  // a second count after training's (ProgressBar shows it as "part 2")
     return r;
   }
 
-  // (no progress: the threshold is one batched sampling pass of the members)
   UpdateReport adopt(const std::vector<std::string>& checkpoints, const std::vector<Episode>& expert,
-                     const std::vector<RecordedEpisode>&, const ProgressFn&) override {
+                     const std::vector<RecordedEpisode>&, const ProgressFn& progress) override {
     if (static_cast<int>(checkpoints.size()) != ensemble_.size())
       throw Error(fmt::format("{}: adopt needs one checkpoint per member ({}), got {}", name(), ensemble_.size(), checkpoints.size()));
     for (int i = 0; i < ensemble_.size(); ++i) ensemble_.member(i).load(checkpoints[static_cast<size_t>(i)]);
     UpdateReport r;
     const ChunkDataset data = ChunkDataset::from_episodes(expert, ensemble_.member(0).config().horizon);
     r.pairs = data.size();
-    set_threshold(data, r);
+    set_threshold(data, r, progress);
     return r;
   }
 
@@ -228,11 +227,12 @@ class EnsembleMethod : public Method {
   }
 
  protected:
-  // The alpha-quantile of the members' spread over the training pairs: every member samples at every pair.
-  void set_threshold(const ChunkDataset& data, UpdateReport& r) {
+  // The alpha-quantile of the members' spread over the training pairs: every member samples at every
+  // pair, in one batch each; `progress` counts the members that have sampled.
+  void set_threshold(const ChunkDataset& data, UpdateReport& r, const ProgressFn& progress = {}) {
     const auto t = Clock::now();
     const ChunkDataset cal = data.subset(config_.calibration_pairs, seed_ + ++updates_);
-    threshold_ = quantile(ensemble_.action_variance(cal.obs, seed_ * 31 + updates_), config_.alpha);
+    threshold_ = quantile(ensemble_.action_variance(cal.obs, seed_ * 31 + updates_, progress), config_.alpha);
     r.threshold_s = since(t);
     r.threshold = threshold_;
   }

@@ -69,7 +69,8 @@ void ProgressBar::draw(bool final) {
   const double frac = total_ > 0 ? static_cast<double>(done_) / total_ : 0.0;
   const double left = time_left(std::chrono::duration<double>(now - part_start_).count(), base_, done_, total_);
   const std::string label = part_ > 1 ? label_ + ", part " + std::to_string(part_) : label_;
-  const std::string value = value_name_.empty() ? "" : "  " + value_name_ + " " + [&] {
+  // (no value to show, e.g. while counting members that have sampled: NaN)
+  const std::string value = value_name_.empty() || std::isnan(value_) ? "" : "  " + value_name_ + " " + [&] {
     char b[32];
     std::snprintf(b, sizeof b, "%.4g", value_);
     return std::string(b);

@@ -209,6 +209,16 @@ TEST(DaggerNav2d, SharedRq1PoliciesAreWhatEachMethodsOwnUpdateTrains) {
   auto plain = make_method("diff", c.policy, c.method, c.dagger.seed);
   plain->adopt({paths[0]}, demos, {}, {});
   EXPECT_FLOAT_EQ(compared->threshold(), plain->threshold());
+
+  // The ensembles' threshold pass (Thrifty-DAgger's is the same code) counts its members as each
+  // has sampled at every pair, and sets the same threshold as without a count.
+  std::vector<std::pair<int, int>> counted;
+  auto watched = make_method("ensemble", c.policy, c.method, c.dagger.seed), quiet = make_method("ensemble", c.policy, c.method, c.dagger.seed);
+  watched->adopt(paths, demos, {}, [&](int done, int total, double) { counted.emplace_back(done, total); });
+  ASSERT_EQ(counted.size(), paths.size());
+  for (size_t i = 0; i < counted.size(); ++i) EXPECT_EQ(counted[i], std::make_pair(static_cast<int>(i) + 1, static_cast<int>(paths.size())));
+  quiet->adopt(paths, demos, {}, {});
+  EXPECT_FLOAT_EQ(watched->threshold(), quiet->threshold());
   fs::remove_all(dir);
 }
 
@@ -335,6 +345,34 @@ TEST(DaggerNav2d, QuickEvaluationWritesEveryFile) {
     }
   }
   fs::remove_all(e.out);
+}
+
+// Figure 5 colours the expert's last span apart when the expert gave up (plugging: a toppled
+// charger), and only then. A lone dagger folder's log, written by hand: the robot acts, asks at step
+// 8, the expert takes over and ends the episode at step 20.
+TEST(DaggerNav2d, PlotMarksAnExpertThatGaveUp) {
+  const std::string dir = temp_dir("plot_gave_up");
+  fs::create_directories(dir);
+  auto brown_pixels = [&](bool gave_up) {
+    write_text(dir + "/queries.jsonl",
+               std::string(R"({"event":"episode_start","episode":1,"step":0,"control":"robot"}
+{"event":"decision","episode":1,"step":0,"score":2.0,"threshold":1.0}
+{"event":"decision","episode":1,"step":8,"score":3.0,"threshold":1.0}
+{"event":"query","episode":1,"step":8}
+{"event":"takeover","episode":1,"step":8,"control":"expert_query"}
+{"event":"episode_end","episode":1,"step":20,"control":"expert_query")") +
+                   (gave_up ? R"(,"gave_up":true})" : "}") + "\n");
+    PlotOptions p;
+    p.dir = dir;
+    plot_runs(p);
+    const ui::Image f = ui::read_png(dir + "/figure5_episode.png");
+    int n = 0;
+    for (size_t i = 0; i + 3 < f.rgba.size(); i += 4) n += f.rgba[i] == 120 && f.rgba[i + 1] == 72 && f.rgba[i + 2] == 40;
+    return n;
+  };
+  EXPECT_GT(brown_pixels(true), 500) << "the span from step 8 to 20, and its legend swatch";
+  EXPECT_EQ(brown_pixels(false), 0);
+  fs::remove_all(dir);
 }
 
 // The cells `eval --jobs` hands to its child processes: every (method, seed, RQ) once, the ensemble

@@ -134,4 +134,23 @@ TEST(Plot, TimelineRowNamesAreNotHiddenByTheirSpans) {
   EXPECT_EQ(timeline_margin_left(p), TimelinePanel::kMarginLeft);
 }
 
+TEST(Plot, TimelineLegendWrapsInsteadOfRunningOffThePanel) {
+  TimelinePanel p;
+  p.title = "t";
+  p.x_label = "step";
+  p.rows = {{"Diff-DAgger", {{0, 10, {60, 110, 210}}}, {5}}};
+  // figure 5's legend: five entries and the query mark fit on one line of the 900-pixel panel
+  p.legend = {{"robot", {60, 110, 210}}, {"expert (query)", {235, 120, 50}}, {"expert (time limit)", {200, 60, 60}},
+              {"demonstration", {80, 160, 90}}, {"operator", {150, 90, 190}}};
+  const Image one_line = draw_timeline(p);
+  // a sixth entry does not: the legend takes a second line, and nothing is drawn in the right margin
+  p.legend.push_back({"expert, then gave up", {120, 72, 40}});
+  const Image two_lines = draw_timeline(p);
+  EXPECT_GT(two_lines.height, one_line.height);
+  const int legend_top = one_line.height - 30;
+  EXPECT_EQ(count_ink(two_lines, two_lines.width - TimelinePanel::kMarginRight + 4, two_lines.width, legend_top, two_lines.height), 0);
+  EXPECT_GT(count_ink(two_lines, 0, two_lines.width, one_line.height, two_lines.height), 20) << "the second line is written";
+  EXPECT_EQ(count_ink(one_line, one_line.width - TimelinePanel::kMarginRight + 4, one_line.width, legend_top, one_line.height), 0);
+}
+
 }  // namespace dd::ui

@@ -359,7 +359,23 @@ int timeline_margin_left(const TimelinePanel& p) {
 Image draw_timeline(const TimelinePanel& p) {
   const int left = timeline_margin_left(p), right = TimelinePanel::kMarginRight, top = 50, row_h = 34, gap = 16, axis_h = 50;
   const int rows = static_cast<int>(p.rows.size());
-  const int legend_h = 30;
+  // the legend: colour swatches, then the mark, in lines that fit between the margins
+  struct Item {
+    int x, line;
+  };
+  std::vector<Item> items;
+  int lines = 1;
+  {
+    int x = left;
+    auto place = [&](int w) {
+      if (x > left && x + w > p.width - right) x = left, ++lines;
+      items.push_back({x, lines - 1});
+      x += w + 12;
+    };
+    for (const auto& entry : p.legend) place(28 + text_width(entry.first, 0.42));
+    place(18 + text_width(p.mark_label, 0.42));
+  }
+  const int legend_line_h = 22, legend_h = 30 + legend_line_h * (lines - 1);
   const int height = top + rows * (row_h + gap) + axis_h + legend_h;
   cv::Mat m(height, p.width, CV_8UC3, cv::Scalar(255, 255, 255));
   double x1 = 1;
@@ -394,15 +410,13 @@ Image draw_timeline(const TimelinePanel& p) {
   cv::line(m, {left, axis_y}, {left + plot_w, axis_y}, kInk, 1);
   text(m, p.x_label, {left + plot_w / 2, axis_y + 40}, 0.45, kInk, 1, true);
   text(m, p.title, {p.width / 2, 28}, 0.62, kInk, 2, true);
-  // legend: colour swatches, then the mark
-  int x = left;
-  const int ly = height - 14;
-  for (const auto& [name, color] : p.legend) {
-    cv::rectangle(m, {x, ly - 11}, {x + 22, ly + 1}, scalar(color), cv::FILLED);
-    text(m, name, {x + 28, ly}, 0.42);
-    int base = 0;
-    x += 40 + cv::getTextSize(name, kFont, 0.42, 1, &base).width;
+  const int ly0 = axis_y + axis_h + 16;
+  for (size_t i = 0; i < p.legend.size(); ++i) {
+    const int x = items[i].x, ly = ly0 + legend_line_h * items[i].line;
+    cv::rectangle(m, {x, ly - 11}, {x + 22, ly + 1}, scalar(p.legend[i].second), cv::FILLED);
+    text(m, p.legend[i].first, {x + 28, ly}, 0.42);
   }
+  const int x = items.back().x, ly = ly0 + legend_line_h * items.back().line;
   const std::vector<cv::Point> tri{{x, ly - 11}, {x + 12, ly - 11}, {x + 6, ly}};
   cv::fillConvexPoly(m, tri, kInk, cv::LINE_AA);
   text(m, p.mark_label, {x + 18, ly}, 0.42);
