@@ -62,10 +62,14 @@ Command add_eval(CLI::App& app) {
                 "run no cell: write the report from the cells finished so far (each row over the seeds it has) and list the "
                 "cells still to run; for an evaluation in progress, or one that another machine finishes")
       ->excludes(only_rq1);
+  auto* no_cache = cmd->add_flag("--no-train-cache", "train every ensemble update, even one that another cell of this folder "
+                                 "trained on the same data from the same weights (by default its members are loaded from "
+                                 "OUT/runs/ensemble_cache; the cost reported is the training's when it ran)");
   cmd->add_option("--cell", o->eval.cell, "run only this cell, METHOD:SEED:rq1|rq2 (what --jobs starts)")->group("");
-  return [o] {
+  return [o, no_cache] {
     ExperimentConfig c = resolve_config(o->task, o->config);
     EvalOptions e = o->eval;
+    e.train_cache = no_cache->count() == 0;
     if (o->quick) e.apply_quick(c);
     run_eval(c, e);
     return 0;

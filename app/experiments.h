@@ -147,6 +147,7 @@ struct EvalOptions {
   std::string cell;     // "METHOD:SEED:rq1|rq2": run only this cell (what --jobs gives each child process)
   bool only_rq1 = false;  // run only the RQ1 cells (with --jobs as well), print them, and write no report
   bool report_only = false;  // run no cell: the report from the cells finished so far, the missing ones listed
+  bool train_cache = true;   // ensembles' trainings memoised in OUT/runs/ensemble_cache (core/runtime.h)
   void apply_quick(ExperimentConfig& config);
 };
 

@@ -1,6 +1,9 @@
 #include "core/ensemble.h"
 
+#include <chrono>
 #include <cmath>
+#include <fstream>
+#include <iterator>
 #include <mutex>
 #include <numeric>
 #include <random>
@@ -11,10 +14,14 @@
 #include <filesystem>
 
 #include <ATen/Parallel.h>
+#include <c10/util/hash.h>
 #include <fmt/format.h>
+#include <nlohmann/json.hpp>
 #include <spdlog/spdlog.h>
 
 #include "core/isolate.h"
+#include "core/runtime.h"
+#include "core/text_file.h"
 
 namespace dd {
 
@@ -55,6 +62,120 @@ TrainStats PolicyEnsemble::train_member(int m, const std::vector<Episode>& membe
 
 std::vector<TrainStats> PolicyEnsemble::train(const std::vector<Episode>& episodes, const TrainConfig& config,
                                               const ProgressFn& progress) {
+  const std::string dir = ensemble_train_cache();
+  last_train_reused_ = false;
+  std::string key;
+  if (!dir.empty()) {
+    std::error_code ec;
+    fs::create_directories(dir, ec);
+    if (ec) throw Error(dir + ": cannot create the ensemble training cache: " + ec.message());
+    key = cache_key(episodes, config, dir);
+    const std::string entry = (fs::path(dir) / key).string();
+    std::vector<TrainStats> stats;
+    if (fs::exists(fs::path(entry) / "train.json") && load_cached(entry, stats)) {
+      last_train_reused_ = true;
+      spdlog::info("ensemble: the same members trained on the same data before ({}): loaded, not trained again "
+                   "({:.1f} s when they were trained)", entry, last_train_s_);
+      if (progress) {
+        const int total = static_cast<int>(stats.size() * stats[0].losses.size());
+        progress(total, total, stats[0].last_mean());
+      }
+      return stats;
+    }
+    std::error_code gone;
+    fs::remove_all(entry, gone);  // an unreadable entry (if any) makes way for the members trained now
+  }
+  const auto start = std::chrono::steady_clock::now();
+  std::vector<TrainStats> stats = train_now(episodes, config, progress);
+  last_train_s_ = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  if (!key.empty()) {
+    try {
+      store_cached(dir, key, stats);
+    } catch (const std::exception& e) {  // a full disk costs the next run its shortcut, not this run its members
+      spdlog::warn("ensemble: could not keep the trained members in {}: {}", dir, e.what());
+    }
+  }
+  return stats;
+}
+
+std::string PolicyEnsemble::cache_key(const std::vector<Episode>& episodes, const TrainConfig& config, const std::string& dir) const {
+  // How the members train decides their float rounding: one thread each in child processes or in
+  // threads of this process (the same weights as --threads 1), or one after another on every thread.
+  std::string how = "one thread each";
+  if (!(parallel_members_ && at::get_num_threads() > 1))
+    how = fmt::format("one after another, {} threads, split {}", at::get_num_threads(), split_in_two_processes());
+  how += fused_optimizer_on() ? ", fused AdamW" : ", torch's AdamW";
+  std::string material = fmt::format("diffdagger ensemble training 1\n{}\nseed {}\nmembers {}\n{}\n",
+                                     nlohmann::json(config).dump(), seed_, size(), how);
+  // the members as they stand (weights, EMA weights, normalisers, config): their checkpoints' bytes
+  const fs::path tmp = fs::path(dir) / fmt::format("key_{}.pt", ::getpid());
+  for (const auto& m : members_) {
+    m->save(tmp.string());
+    std::ifstream in(tmp, std::ios::binary);
+    material.append(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+  }
+  std::error_code ec;
+  fs::remove(tmp, ec);
+  auto put = [&](const Mat& m) {
+    material += fmt::format("{}x{}\n", m.rows(), m.cols());
+    material.append(reinterpret_cast<const char*>(m.data()), static_cast<size_t>(m.size()) * sizeof(m.data()[0]));
+  };
+  for (const Episode& e : episodes) {
+    put(e.obs);
+    put(e.actions);
+  }
+  return c10::sha1(material).str();
+}
+
+bool PolicyEnsemble::load_cached(const std::string& entry, std::vector<TrainStats>& stats) {
+  const std::string index = entry + "/train.json";
+  try {
+    const nlohmann::json j = nlohmann::json::parse(read_text(index));
+    const auto& members = j.at("members");
+    if (!members.is_array() || static_cast<int>(members.size()) != size())
+      throw Error(fmt::format("field 'members' holds {} members, the ensemble has {}", members.size(), size()));
+    // every member's file read and checked before any member changes: a bad entry leaves the ensemble as it was
+    std::vector<std::string> files;
+    for (int m = 0; m < size(); ++m) {
+      files.push_back(fmt::format("{}/member_{}.pt", entry, m));
+      const auto loaded = DiffusionPolicy::from_checkpoint(files.back());
+      if (!config_differences(loaded->config(), members_[static_cast<size_t>(m)]->config()).empty())
+        throw Error(files.back() + ": another network than this ensemble's");
+    }
+    std::vector<TrainStats> out(static_cast<size_t>(size()));
+    for (int m = 0; m < size(); ++m) {
+      out[static_cast<size_t>(m)].seconds = members[static_cast<size_t>(m)].at("seconds").get<double>();
+      out[static_cast<size_t>(m)].losses = members[static_cast<size_t>(m)].at("losses").get<std::vector<float>>();
+    }
+    const double seconds = j.at("seconds").get<double>();
+    for (int m = 0; m < size(); ++m) members_[static_cast<size_t>(m)]->load(files[static_cast<size_t>(m)]);
+    stats = std::move(out);
+    last_train_s_ = seconds;
+    return true;
+  } catch (const std::exception& e) {
+    const std::string why = e.what();
+    spdlog::warn("ensemble: the cache entry {} is unreadable ({}); training instead", entry, why.substr(0, why.find('\n')));
+    return false;
+  }
+}
+
+void PolicyEnsemble::store_cached(const std::string& dir, const std::string& key, const std::vector<TrainStats>& stats) const {
+  // written under a temporary name and renamed whole: a reader sees a complete entry or none
+  const fs::path entry = fs::path(dir) / key, tmp = fs::path(dir) / fmt::format("{}.tmp.{}", key, ::getpid());
+  fs::create_directories(tmp);
+  nlohmann::json members = nlohmann::json::array();
+  for (int m = 0; m < size(); ++m) {
+    members_[static_cast<size_t>(m)]->save((tmp / fmt::format("member_{}.pt", m)).string());
+    members.push_back({{"seconds", stats[static_cast<size_t>(m)].seconds}, {"losses", stats[static_cast<size_t>(m)].losses}});
+  }
+  write_text((tmp / "train.json").string(), nlohmann::json{{"seconds", last_train_s_}, {"members", members}}.dump() + "\n");
+  std::error_code ec;
+  fs::rename(tmp, entry, ec);
+  if (ec) fs::remove_all(tmp, ec);  // another process stored the same entry first
+}
+
+std::vector<TrainStats> PolicyEnsemble::train_now(const std::vector<Episode>& episodes, const TrainConfig& config,
+                                                  const ProgressFn& progress) {
   const std::vector<std::vector<Episode>> data = member_data(episodes);
   const int horizon = members_[0]->config().horizon;
   const int per_member = config.steps_for(ChunkDataset::from_episodes(episodes, horizon).size());

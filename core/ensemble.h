@@ -26,8 +26,19 @@ class PolicyEnsemble {
   /// Trains member 0, the one that acts, on all the episodes, and every other member on its own
   /// bootstrap resample (as many episodes, drawn with replacement): the acting policy sees the same
   /// data as Diff-DAgger's and BC's, the others supply the spread. Progress counts steps over all members.
+  ///
+  /// With a cache folder set (core/runtime.h's set_ensemble_train_cache), training is memoised: the key
+  /// is a SHA-1 of everything it reads (every member's weights, EMA weights and normalisers, the
+  /// episodes, the config, the ensemble's seed and how the members train), and an entry holds the
+  /// trained members and their stats. A hit loads the members (bit for bit what training would give,
+  /// as training is deterministic) and reports the wall-clock the training took when it ran; a miss
+  /// trains and stores them. An unreadable entry is reported and trained over.
   std::vector<TrainStats> train(const std::vector<Episode>& episodes, const TrainConfig& config,
                                 const ProgressFn& progress = {});
+  /// The last train()'s wall-clock (for a cache hit: the training's when it ran), and whether it
+  /// came from the cache.
+  double last_train_seconds() const { return last_train_s_; }
+  bool last_train_reused() const { return last_train_reused_; }
 
   /// What each member trains on (train() draws the same): member 0 all of `episodes`, member i its
   /// own bootstrap resample, drawn from the ensemble's seed.
@@ -65,6 +76,10 @@ class PolicyEnsemble {
   void set_train_in_processes(bool on) { train_in_processes_ = on; }
 
  private:
+  std::vector<TrainStats> train_now(const std::vector<Episode>& episodes, const TrainConfig& config, const ProgressFn& progress);
+  std::string cache_key(const std::vector<Episode>& episodes, const TrainConfig& config, const std::string& dir) const;
+  bool load_cached(const std::string& entry, std::vector<TrainStats>& stats);
+  void store_cached(const std::string& dir, const std::string& key, const std::vector<TrainStats>& stats) const;
   void train_in_children(const std::vector<std::vector<Episode>>& data, const TrainConfig& config, int total,
                          const ProgressFn& progress, std::vector<TrainStats>& stats);
   std::vector<std::vector<Mat>> sample_members(const Mat& obs, uint64_t seed, const ProgressFn& progress = {}) const;  // [member][row]
@@ -73,6 +88,8 @@ class PolicyEnsemble {
   uint64_t seed_;
   bool parallel_members_ = true;
   bool train_in_processes_ = true;
+  double last_train_s_ = 0;
+  bool last_train_reused_ = false;
 };
 
 }  // namespace dd

@@ -37,6 +37,7 @@ void EventLog::operator()(const SessionEvent& e) {
     j["threshold_s"] = e.report.threshold_s;
     j["threshold"] = e.report.threshold;
     j["pairs"] = e.report.pairs;
+    if (e.report.train_reused) j["train_reused"] = true;
   }
   j["expert_demos"] = e.expert_demos;
   j["interventions"] = e.interventions;

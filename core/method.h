@@ -78,7 +78,8 @@ struct MethodDecision {
 
 /// What one policy update cost and set.
 struct UpdateReport {
-  double train_s = 0;        // training wall-clock
+  double train_s = 0;        // training wall-clock (reused: the training's when it ran)
+  bool train_reused = false; // the ensemble's members came from the training cache (core/runtime.h)
   double threshold_s = 0;    // threshold setting wall-clock
   float threshold = 0;
   int pairs = 0;             // training pairs

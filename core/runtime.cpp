@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <atomic>
+#include <mutex>
 #include <cstdlib>
 #include <string_view>
 #include <thread>
@@ -41,6 +42,20 @@ bool set_data_parallel_from(bool one_process) {
   set_data_parallel(!one_process && !env_off);
   return g_data_parallel;
 }
+namespace {
+std::mutex g_cache_mutex;
+std::string g_ensemble_cache;
+}  // namespace
+
+void set_ensemble_train_cache(const std::string& dir) {
+  std::lock_guard<std::mutex> lock(g_cache_mutex);
+  g_ensemble_cache = dir;
+}
+std::string ensemble_train_cache() {
+  std::lock_guard<std::mutex> lock(g_cache_mutex);
+  return g_ensemble_cache;
+}
+
 bool split_in_two_processes() { return g_data_parallel && at::get_num_threads() >= 2 && !at::in_parallel_region(); }
 
 }  // namespace dd

@@ -1,6 +1,8 @@
 // Process-wide settings for the learning core.
 #pragma once
 
+#include <string>
+
 namespace dd {
 
 /// Sets the number of intra-op threads libtorch uses. n <= 0 picks the default: $DD_THREADS if set,
@@ -26,5 +28,12 @@ void set_data_parallel(bool on);
 bool set_data_parallel_from(bool one_process);
 /// Whether to split now: set_data_parallel on, two threads or more, and not inside a parallel region.
 bool split_in_two_processes();
+
+/// A folder in which PolicyEnsemble::train keeps the members it trains, keyed by everything the
+/// training reads (core/ensemble.h), so that training the same members on the same data again loads
+/// them instead: Ensemble-DAgger and Thrifty-DAgger train the very same ensemble until their queries
+/// first differ. "" (the default) keeps nothing. eval sets OUT/runs/ensemble_cache.
+void set_ensemble_train_cache(const std::string& dir);
+std::string ensemble_train_cache();
 
 }  // namespace dd

@@ -58,6 +58,7 @@ void adamw(float* p, const float* g, float* m, float* v, int64_t n, float clip, 
 }  // namespace
 
 void set_fused_optimizer(bool on) { fused_optimizer = on; }
+bool fused_optimizer_on() { return fused_optimizer; }
 
 namespace {
 // OpenMP's pool size is per thread: this one's, for a scope.

@@ -69,6 +69,7 @@ TrainStats train(DiffusionPolicy& policy, const ChunkDataset& data, const TrainC
 /// the EMA are a few passes over them) or with torch's AdamW per parameter tensor (the benchmarks'
 /// baseline). Both compute the same update.
 void set_fused_optimizer(bool on);
+bool fused_optimizer_on();
 
 /// The learning rate at `step` of `total`: linear warm-up, then cosine decay to zero.
 double scheduled_lr(const TrainConfig& config, int step, int total);

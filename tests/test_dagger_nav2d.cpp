@@ -284,6 +284,25 @@ TEST(DaggerNav2d, QuickEvaluationWritesEveryFile) {
   EXPECT_NE(report.find("| TP | FP | TN | FN |"), std::string::npos);
   EXPECT_NE(report.find("final iteration"), std::string::npos);
 
+  // Ensemble-DAgger's and Thrifty-DAgger's first updates train the same members on the same
+  // demonstrations: whichever cell runs second loads them from the folder's cache and reports the
+  // training's cost, and the two runs stay the same
+  {
+    auto first_update = [&](const std::string& method) {
+      std::ifstream in(e.out + "/runs/" + method + "_seed0/queries.jsonl");
+      for (std::string l; std::getline(in, l);)
+        if (l.find("\"update_finished\"") != std::string::npos) return nlohmann::json::parse(l);
+      return nlohmann::json();
+    };
+    const nlohmann::json t = first_update("thrifty"), en = first_update("ensemble");
+    ASSERT_FALSE(t.is_null());
+    ASSERT_FALSE(en.is_null());
+    EXPECT_EQ(t.value("train_reused", false) + en.value("train_reused", false), 1) << t.dump() << "\n" << en.dump();
+    EXPECT_EQ(t.at("train_s").get<double>(), en.at("train_s").get<double>());
+    EXPECT_EQ(t.at("threshold").get<double>(), en.at("threshold").get<double>());
+    EXPECT_TRUE(fs::is_directory(e.out + "/runs/ensemble_cache"));
+  }
+
   // `plot`: figures 4 and 5 from the runs' event logs
   PlotOptions p;
   p.dir = e.out;

@@ -97,6 +97,71 @@ TEST(Methods, TheEnsemblesActingMemberIsTrainedOnAllTheData) {
   EXPECT_GT(bootstrapped_differently, 0);  // resamples: P(all 7 hold the first and the last episode) < 0.004
 }
 
+TEST(Methods, TheEnsembleTrainingCacheLoadsWhatTheSameTrainingGave) {
+  namespace fs = std::filesystem;
+  const auto episodes = bimodal_episodes(6, 10, 2, 2, /*seed=*/4);
+  const fs::path dir = fs::temp_directory_path() / ("dd_ensemble_cache_" + std::to_string(::getpid()));
+  fs::remove_all(dir);
+  struct CacheOff {
+    ~CacheOff() { set_ensemble_train_cache(""); }
+  } cache_off;
+  const Vec obs = Vec::Constant(2, 0.3f);
+  auto same_members = [&](const PolicyEnsemble& a, const PolicyEnsemble& b) {
+    const auto da = a.decide(obs, 5), db = b.decide(obs, 5);
+    return da.chunk.cwiseEqual(db.chunk).all() && da.variance == db.variance;
+  };
+  auto trained = [&](const std::vector<Episode>& data, int steps = 20, uint64_t seed = 2) {
+    auto e = std::make_unique<PolicyEnsemble>(fakes::tiny_policy(), 3, seed);
+    e->train(data, short_training(steps));
+    return e;
+  };
+
+  // what training gives with no cache
+  const auto plain = trained(episodes);
+  EXPECT_FALSE(plain->last_train_reused());
+
+  set_ensemble_train_cache(dir.string());
+  PolicyEnsemble first(fakes::tiny_policy(), 3, 2);
+  const auto first_stats = first.train(episodes, short_training(20));
+  EXPECT_FALSE(first.last_train_reused());
+  EXPECT_GT(first.last_train_seconds(), 0.0);
+  EXPECT_TRUE(same_members(first, *plain));
+
+  PolicyEnsemble second(fakes::tiny_policy(), 3, 2);
+  const auto second_stats = second.train(episodes, short_training(20));
+  ASSERT_TRUE(second.last_train_reused());
+  EXPECT_EQ(second.last_train_seconds(), first.last_train_seconds());  // the cost is the training's
+  ASSERT_EQ(second_stats.size(), first_stats.size());
+  for (size_t m = 0; m < first_stats.size(); ++m) {
+    EXPECT_EQ(second_stats[m].losses, first_stats[m].losses);
+    EXPECT_EQ(second_stats[m].seconds, first_stats[m].seconds);
+  }
+  EXPECT_TRUE(same_members(second, *plain));  // bit for bit what training gives
+
+  // anything the training reads makes another key: the data, the config, the seed, the weights
+  auto changed = episodes;
+  changed[0].actions(0, 0) += 1e-3f;
+  EXPECT_FALSE(trained(changed)->last_train_reused());
+  EXPECT_FALSE(trained(episodes, 21)->last_train_reused());
+  EXPECT_FALSE(trained(episodes, 20, 3)->last_train_reused());
+  second.train(episodes, short_training(20));  // continues from its trained weights
+  EXPECT_FALSE(second.last_train_reused());
+
+  // a damaged entry is trained over, and the result is still training's
+  int damaged = 0;
+  for (const auto& entry : fs::directory_iterator(dir)) {
+    if (!fs::exists(entry.path() / "member_1.pt")) continue;
+    fs::resize_file(entry.path() / "member_1.pt", 100);
+    ++damaged;
+  }
+  EXPECT_GE(damaged, 1);
+  const auto retrained = trained(episodes);
+  EXPECT_FALSE(retrained->last_train_reused());
+  EXPECT_TRUE(same_members(*retrained, *plain));
+  EXPECT_TRUE(trained(episodes)->last_train_reused());  // and stored again
+  fs::remove_all(dir);
+}
+
 TEST(Methods, TheLossIsScoredWithTheChosenWeights) {
   const auto episodes = bimodal_episodes(12, 10, 2, 2, /*seed=*/5);
   const ChunkDataset data = ChunkDataset::from_episodes(episodes, 8);

@@ -165,10 +165,12 @@ DaggerRunResult run_dagger(const ExperimentConfig& config, const DaggerRunOption
       // One line per update: alone on an interactive run, after the label in eval's cell logs (there it is a
       // long run's only sign of life), nothing on a quiet unlabelled one.
       if (!o.quiet || !o.label.empty())
-        fmt::print(stderr, "{}update {}: {}/{} demonstrations ({} interventions) in {} episodes, {} pairs; train {:.1f} s, "
+        fmt::print(stderr, "{}update {}: {}/{} demonstrations ({} interventions) in {} episodes, {} pairs; train {:.1f} s{}, "
                    "threshold {:.4g} set in {:.1f} s\n",
                    prefix, session.updates(), session.expert_demos(), config.dagger.final_demos,
-                   session.interventions(), session.episode(), r.pairs, r.train_s, r.threshold, r.threshold_s);
+                   session.interventions(), session.episode(), r.pairs, r.train_s,
+                   r.train_reused ? " (when trained: the same members on the same data, loaded from the cache)" : "", r.threshold,
+                   r.threshold_s);
       if (!session.done()) {
         save_resume_point();
         if (session.updates() == o.stop_after_update) {

@@ -31,6 +31,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include "core/runtime.h"
 #include "core/text_file.h"
 #include "core/dataset.h"
 #include "core/ensemble.h"
@@ -303,6 +304,12 @@ void run_eval(const ExperimentConfig& config, const EvalOptions& o) {
     // a cell's process (eval --jobs) runs in the folder its parent prepared, and only reads it
     throw Error(o.out + "/config.json: --cell runs a cell of the evaluation whose config this file holds, and it holds another");
   }
+  // Ensemble-DAgger and Thrifty-DAgger train the same ensemble on the same data until their queries
+  // first differ (always at the first update): the second of them loads what the first trained.
+  struct CacheScope {
+    explicit CacheScope(const std::string& dir) { set_ensemble_train_cache(dir); }
+    ~CacheScope() { set_ensemble_train_cache(""); }
+  } cache_scope(o.train_cache && !o.report_only ? o.out + "/runs/ensemble_cache" : "");
   std::map<std::string, EvalRow> rows;
   auto env = make_env(config.task);
   const DaggerConfig& d = config.dagger;
