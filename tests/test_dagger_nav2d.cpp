@@ -286,7 +286,7 @@ TEST(DaggerNav2d, QuickEvaluationWritesEveryFile) {
 
   // Ensemble-DAgger's and Thrifty-DAgger's first updates train the same members on the same
   // demonstrations: whichever cell runs second loads them from the folder's cache and reports the
-  // training's cost, and the two runs stay the same
+  // training's cost, and the two runs have the same threshold
   {
     auto first_update = [&](const std::string& method) {
       std::ifstream in(e.out + "/runs/" + method + "_seed0/queries.jsonl");
@@ -298,7 +298,9 @@ TEST(DaggerNav2d, QuickEvaluationWritesEveryFile) {
     ASSERT_FALSE(t.is_null());
     ASSERT_FALSE(en.is_null());
     EXPECT_EQ(t.value("train_reused", false) + en.value("train_reused", false), 1) << t.dump() << "\n" << en.dump();
-    EXPECT_EQ(t.at("train_s").get<double>(), en.at("train_s").get<double>());
+    // Thrifty-DAgger's training is the ensemble's and its critic's: the reused one reports the former
+    EXPECT_GT(en.at("train_s").get<double>(), 0.0);
+    EXPECT_LE(en.at("train_s").get<double>(), t.at("train_s").get<double>());
     EXPECT_EQ(t.at("threshold").get<double>(), en.at("threshold").get<double>());
     EXPECT_TRUE(fs::is_directory(e.out + "/runs/ensemble_cache"));
   }

@@ -110,7 +110,7 @@ TEST(Methods, TheEnsembleTrainingCacheLoadsWhatTheSameTrainingGave) {
     const auto da = a.decide(obs, 5), db = b.decide(obs, 5);
     return da.chunk.cwiseEqual(db.chunk).all() && da.variance == db.variance;
   };
-  auto trained = [&](const std::vector<Episode>& data, int steps = 20, uint64_t seed = 2) {
+  auto trained = [&](const std::vector<Episode>& data, int steps = 10, uint64_t seed = 2) {
     auto e = std::make_unique<PolicyEnsemble>(fakes::tiny_policy(), 3, seed);
     e->train(data, short_training(steps));
     return e;
@@ -122,13 +122,13 @@ TEST(Methods, TheEnsembleTrainingCacheLoadsWhatTheSameTrainingGave) {
 
   set_ensemble_train_cache(dir.string());
   PolicyEnsemble first(fakes::tiny_policy(), 3, 2);
-  const auto first_stats = first.train(episodes, short_training(20));
+  const auto first_stats = first.train(episodes, short_training(10));
   EXPECT_FALSE(first.last_train_reused());
   EXPECT_GT(first.last_train_seconds(), 0.0);
   EXPECT_TRUE(same_members(first, *plain));
 
   PolicyEnsemble second(fakes::tiny_policy(), 3, 2);
-  const auto second_stats = second.train(episodes, short_training(20));
+  const auto second_stats = second.train(episodes, short_training(10));
   ASSERT_TRUE(second.last_train_reused());
   EXPECT_EQ(second.last_train_seconds(), first.last_train_seconds());  // the cost is the training's
   ASSERT_EQ(second_stats.size(), first_stats.size());
@@ -142,9 +142,9 @@ TEST(Methods, TheEnsembleTrainingCacheLoadsWhatTheSameTrainingGave) {
   auto changed = episodes;
   changed[0].actions(0, 0) += 1e-3f;
   EXPECT_FALSE(trained(changed)->last_train_reused());
-  EXPECT_FALSE(trained(episodes, 21)->last_train_reused());
-  EXPECT_FALSE(trained(episodes, 20, 3)->last_train_reused());
-  second.train(episodes, short_training(20));  // continues from its trained weights
+  EXPECT_FALSE(trained(episodes, 11)->last_train_reused());
+  EXPECT_FALSE(trained(episodes, 10, 3)->last_train_reused());
+  second.train(episodes, short_training(10));  // continues from its trained weights
   EXPECT_FALSE(second.last_train_reused());
 
   // a damaged entry is trained over, and the result is still training's
