@@ -138,6 +138,12 @@ TEST(Methods, TheEnsembleTrainingCacheLoadsWhatTheSameTrainingGave) {
   }
   EXPECT_TRUE(same_members(second, *plain));  // bit for bit what training gives
 
+  // the cells of an evaluation run in processes of their own: what one stored, another loads
+  run_in_children(1, 1, "training in another process", [&](int, const ReportFn&) {
+    return trained(episodes, 12)->last_train_reused() ? "reused" : "trained";
+  });
+  EXPECT_TRUE(trained(episodes, 12)->last_train_reused());
+
   // anything the training reads makes another key: the data, the config, the seed, the weights
   auto changed = episodes;
   changed[0].actions(0, 0) += 1e-3f;
