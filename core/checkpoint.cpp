@@ -5,6 +5,7 @@
 // through a temporary file and a rename, so a failed save (a full disk) never clobbers a good file.
 #include <filesystem>
 #include <fstream>
+#include <sstream>
 
 #include <nlohmann/json.hpp>
 
@@ -56,19 +57,32 @@ void read_into(const std::string& path, Contents& c, DiffusionPolicy::Impl& impl
 
 }  // namespace
 
-void DiffusionPolicy::save(const std::string& path) const {
-  torch::serialize::OutputArchive archive;
+namespace {
+void write_checkpoint(const DiffusionPolicy::Impl& impl, torch::serialize::OutputArchive& archive) {
   archive.write("format", c10::IValue(std::string(kFormat)));
   archive.write("version", c10::IValue(kVersion));
-  archive.write("config", c10::IValue(nlohmann::json(impl_->config).dump()));
-  write_normalizers(archive, impl_->obs_norm, impl_->act_norm);
+  archive.write("config", c10::IValue(nlohmann::json(impl.config).dump()));
+  write_normalizers(archive, impl.obs_norm, impl.act_norm);
   torch::serialize::OutputArchive model, ema;
-  impl_->model->save(model);
-  impl_->ema->save(ema);
+  impl.model->save(model);
+  impl.ema->save(ema);
   archive.write("model", model);
   archive.write("ema", ema);
+}
+}  // namespace
 
+void DiffusionPolicy::save(const std::string& path) const {
+  torch::serialize::OutputArchive archive;
+  write_checkpoint(*impl_, archive);
   save_archive_atomically(archive, path, "checkpoint");
+}
+
+std::string DiffusionPolicy::checkpoint_bytes() const {
+  torch::serialize::OutputArchive archive;
+  write_checkpoint(*impl_, archive);
+  std::ostringstream out;
+  archive.save_to(out);
+  return out.str();
 }
 
 void DiffusionPolicy::load(const std::string& path) {

@@ -2,8 +2,6 @@
 
 #include <chrono>
 #include <cmath>
-#include <fstream>
-#include <iterator>
 #include <mutex>
 #include <numeric>
 #include <random>
@@ -69,7 +67,7 @@ std::vector<TrainStats> PolicyEnsemble::train(const std::vector<Episode>& episod
     std::error_code ec;
     fs::create_directories(dir, ec);
     if (ec) throw Error(dir + ": cannot create the ensemble training cache: " + ec.message());
-    key = cache_key(episodes, config, dir);
+    key = cache_key(episodes, config);
     const std::string entry = (fs::path(dir) / key).string();
     std::vector<TrainStats> stats;
     if (fs::exists(fs::path(entry) / "train.json") && load_cached(entry, stats)) {
@@ -98,28 +96,18 @@ std::vector<TrainStats> PolicyEnsemble::train(const std::vector<Episode>& episod
   return stats;
 }
 
-std::string PolicyEnsemble::cache_key(const std::vector<Episode>& episodes, const TrainConfig& config, const std::string& dir) const {
+std::string PolicyEnsemble::cache_key(const std::vector<Episode>& episodes, const TrainConfig& config) const {
   // How the members train decides their float rounding: one thread each in child processes or in
   // threads of this process (the same weights as --threads 1), or one after another on every thread.
   std::string how = "one thread each";
   if (!parallel_members_ && at::get_num_threads() > 1)
     how = fmt::format("one after another, {} threads, split {}", at::get_num_threads(), split_in_two_processes());
   how += fused_optimizer_on() ? ", fused AdamW" : ", torch's AdamW";
-  std::string material = fmt::format("diffdagger ensemble training 2\n{}\nseed {}\nmembers {}\n{}\n",
+  std::string material = fmt::format("diffdagger ensemble training 3\n{}\nseed {}\nmembers {}\n{}\n",
                                      nlohmann::json(config).dump(), seed_, size(), how);
-  // the members as they stand (weights, EMA weights, normalisers, config): their checkpoints' bytes.
-  // A checkpoint names its zip entries after its file, so every process saves under the same file
-  // name, in a folder of its own (a name with the process id in it made every cell's keys its own).
-  const fs::path tmp = fs::path(dir) / fmt::format("key.{}", ::getpid());
-  fs::create_directories(tmp);
-  const fs::path file = tmp / "member.pt";
-  for (const auto& m : members_) {
-    m->save(file.string());
-    std::ifstream in(file, std::ios::binary);
-    material.append(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
-  }
-  std::error_code ec;
-  fs::remove_all(tmp, ec);
+  // the members as they stand (weights, EMA weights, normalisers, config): their checkpoints' bytes,
+  // made in memory (a file's checkpoint names its zip entries after the file, which a key must not see)
+  for (const auto& m : members_) material += m->checkpoint_bytes();
   auto put = [&](const Mat& m) {
     material += fmt::format("{}x{}\n", m.rows(), m.cols());
     material.append(reinterpret_cast<const char*>(m.data()), static_cast<size_t>(m.size()) * sizeof(m.data()[0]));

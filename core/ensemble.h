@@ -77,7 +77,7 @@ class PolicyEnsemble {
 
  private:
   std::vector<TrainStats> train_now(const std::vector<Episode>& episodes, const TrainConfig& config, const ProgressFn& progress);
-  std::string cache_key(const std::vector<Episode>& episodes, const TrainConfig& config, const std::string& dir) const;
+  std::string cache_key(const std::vector<Episode>& episodes, const TrainConfig& config) const;
   bool load_cached(const std::string& entry, std::vector<TrainStats>& stats);
   void store_cached(const std::string& dir, const std::string& key, const std::vector<TrainStats>& stats) const;
   void train_in_children(const std::vector<std::vector<Episode>>& data, const TrainConfig& config, int total,

@@ -139,6 +139,9 @@ class DiffusionPolicy {
   /// Writes config, normalisers, weights and EMA weights to one file (atomically: temp file + rename).
   /// Throws Error naming the file on failure; an existing checkpoint is left intact.
   void save(const std::string& path) const;
+  /// The bytes save() would write, made in memory (named alike in every process): what the policy
+  /// holds, as a fingerprint (PolicyEnsemble's training cache keys on it).
+  std::string checkpoint_bytes() const;
   /// Loads a checkpoint into this policy. Throws Error naming the file and every config field that
   /// differs, or the file as truncated / corrupt.
   void load(const std::string& path);
