@@ -48,7 +48,7 @@ RiskCritic::RiskCritic(int obs_dim, int action_dim, const CriticConfig& config) 
 
 RiskCritic::~RiskCritic() = default;
 
-float RiskCritic::train(const std::vector<RecordedEpisode>& episodes) {
+float RiskCritic::train(const std::vector<RecordedEpisode>& episodes, const ProgressFn& progress) {
   Impl& m = *impl_;
   // Transitions (o, a, r, o', a', done).
   Eigen::Index n = 0;
@@ -111,6 +111,7 @@ float RiskCritic::train(const std::vector<RecordedEpisode>& episodes) {
       avg(m.t2, m.q2);
     }
     last = loss.item<float>();
+    if (progress && ((step + 1) % 25 == 0 || step + 1 == m.config.steps)) progress(step + 1, m.config.steps, last);
   }
   return last;
 }

@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "core/dataset.h"
+#include "core/progress.h"
 #include "core/types.h"
 
 namespace dd {
@@ -34,8 +35,9 @@ class RiskCritic {
   RiskCritic& operator=(const RiskCritic&) = delete;
 
   /// Fits Q on the transitions of `episodes` (demonstrations and robot rollouts; reward 1 on the
-  /// successful step, done on the last). Returns the final TD loss.
-  float train(const std::vector<RecordedEpisode>& episodes);
+  /// successful step, done on the last). Returns the final TD loss. `progress` counts the gradient
+  /// steps, with the running TD loss.
+  float train(const std::vector<RecordedEpisode>& episodes, const ProgressFn& progress = {});
   /// min(Q1, Q2) for each (obs row, action row), in [0, 1].
   std::vector<float> q(const Mat& obs, const Mat& actions) const;
 

@@ -261,7 +261,7 @@ class ThriftyMethod : public EnsembleMethod {
   UpdateReport update(const std::vector<Episode>& expert, const std::vector<RecordedEpisode>& robot, const TrainConfig& train_config,
                       const ProgressFn& progress) override {
     UpdateReport r = EnsembleMethod::update(expert, robot, train_config, progress);
-    const auto [train_s, threshold_s] = fit_risk(expert, robot);
+    const auto [train_s, threshold_s] = fit_risk(expert, robot, progress);
     r.train_s += train_s;
     r.threshold_s += threshold_s;
     return r;
@@ -270,7 +270,7 @@ class ThriftyMethod : public EnsembleMethod {
   UpdateReport adopt(const std::vector<std::string>& checkpoints, const std::vector<Episode>& expert,
                      const std::vector<RecordedEpisode>& robot, const ProgressFn& progress) override {
     UpdateReport r = EnsembleMethod::adopt(checkpoints, expert, robot, progress);
-    const auto [train_s, threshold_s] = fit_risk(expert, robot);
+    const auto [train_s, threshold_s] = fit_risk(expert, robot, progress);
     r.train_s += train_s;
     r.threshold_s += threshold_s;
     return r;
@@ -311,7 +311,9 @@ class ThriftyMethod : public EnsembleMethod {
   // and the robot's rollouts (its episodes and the robot's part of intervened ones, which end in a
   // non-success at the takeover). gamma is a low quantile of Q over the robot's own states (the
   // demonstrations' when there are none yet). Returns the seconds spent training and setting gamma.
-  std::pair<double, double> fit_risk(const std::vector<Episode>& expert, const std::vector<RecordedEpisode>& robot) {
+  // `progress` follows the critic's steps (a count after the threshold's: ProgressBar's next part).
+  std::pair<double, double> fit_risk(const std::vector<Episode>& expert, const std::vector<RecordedEpisode>& robot,
+                                     const ProgressFn& progress = {}) {
     auto t = Clock::now();
     std::vector<RecordedEpisode> transitions;
     for (const Episode& e : expert) {
@@ -322,7 +324,7 @@ class ThriftyMethod : public EnsembleMethod {
       transitions.push_back(std::move(re));
     }
     transitions.insert(transitions.end(), robot.begin(), robot.end());
-    critic_.train(transitions);
+    critic_.train(transitions, progress);
     const double train_s = since(t);
     t = Clock::now();
     const std::vector<RecordedEpisode>& source = robot.empty() ? transitions : robot;

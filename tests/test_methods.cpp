@@ -4,6 +4,7 @@
 // undefined, and rollouts gate per chunk or per step like the session.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -139,9 +140,10 @@ TEST(Methods, TheEnsembleTrainingCacheLoadsWhatTheSameTrainingGave) {
   EXPECT_TRUE(same_members(second, *plain));  // bit for bit what training gives
 
   // the cells of an evaluation run in processes of their own: what one stored, another loads
-  run_in_children(1, 1, "training in another process", [&](int, const ReportFn&) {
-    return trained(episodes, 12)->last_train_reused() ? "reused" : "trained";
+  const auto child = run_in_children(1, 1, "training in another process", [&](int, const ReportFn&) {
+    return std::string(trained(episodes, 12)->last_train_reused() ? "reused" : "trained");
   });
+  ASSERT_EQ(child, std::vector<std::string>{"trained"});  // a new key: the child trained and stored it
   EXPECT_TRUE(trained(episodes, 12)->last_train_reused());
 
   // anything the training reads makes another key: the data, the config, the seed, the weights
@@ -201,7 +203,7 @@ TEST(Methods, ReinitialisingKeepsTheNormalisersAndDrawsNewWeights) {
   EXPECT_FALSE(p.sample(obs, 3).isApprox(trained, 1e-3f));
 }
 
-// Thrifty's critic saved and loaded (resume points): the same Q values; a critic file of other sizes,
+// Thrifty's critic reports its training's progress, and saved and loaded (resume points) gives the same Q values; a critic file of other sizes,
 // a truncated one and a missing one are Errors naming the file.
 TEST(Methods, TheRiskCriticSavesAndLoads) {
   namespace fs = std::filesystem;
@@ -211,7 +213,16 @@ TEST(Methods, TheRiskCriticSavesAndLoads) {
   cc.steps = 20;
   cc.hidden = 16;
   RiskCritic critic(2, 2, cc);
-  critic.train(data);
+  std::vector<int> done;
+  critic.train(data, [&](int d, int total, double loss) {
+    EXPECT_EQ(total, cc.steps);
+    EXPECT_TRUE(std::isfinite(loss));
+    done.push_back(d);
+  });
+  // progress goes forward and ends at the last step
+  ASSERT_FALSE(done.empty());
+  EXPECT_TRUE(std::is_sorted(done.begin(), done.end()));
+  EXPECT_EQ(done.back(), cc.steps);
   const fs::path file = fs::temp_directory_path() / ("dd_critic_" + std::to_string(::getpid()) + ".pt");
   critic.save(file.string());
   RiskCritic loaded(2, 2, cc);
