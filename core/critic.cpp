@@ -111,7 +111,7 @@ float RiskCritic::train(const std::vector<RecordedEpisode>& episodes, const Prog
       avg(m.t2, m.q2);
     }
     last = loss.item<float>();
-    if (progress && ((step + 1) % 25 == 0 || step + 1 == m.config.steps)) progress(step + 1, m.config.steps, last);
+    if (progress) progress(step + 1, m.config.steps, last);  // ProgressBar throttles its drawing, as for the trainer's
   }
   return last;
 }

@@ -203,8 +203,8 @@ TEST(Methods, ReinitialisingKeepsTheNormalisersAndDrawsNewWeights) {
   EXPECT_FALSE(p.sample(obs, 3).isApprox(trained, 1e-3f));
 }
 
-// Thrifty's critic reports its training's progress, and saved and loaded (resume points) gives the same Q values; a critic file of other sizes,
-// a truncated one and a missing one are Errors naming the file.
+// Thrifty's critic reports its training's progress; saved and loaded (resume points) it gives the
+// same Q values; a critic file of other sizes, a truncated one and a missing one are Errors naming the file.
 TEST(Methods, TheRiskCriticSavesAndLoads) {
   namespace fs = std::filesystem;
   const auto episodes = bimodal_episodes(6, 10, 2, 2, /*seed=*/5);
