@@ -470,7 +470,28 @@ TEST(DaggerNav2d, AStoppedEvaluationRerunsOnlyTheUnfinishedCells) {
   e.episodes = 4;
   c.train.steps = 31;
   EXPECT_THROW(run_eval(c, e), Error);
+  c.train.steps = 30;
+
+  // one cell run on its own (`--cell`, as the report suggests) in a new folder prepares the folder;
+  // in the folder of another config it is refused
+  EvalOptions one = e;
+  one.cell = "bc:0:rq2";
+  const std::string fresh = temp_dir("eval_one_cell");
+  one.out = fresh;
+  run_eval(c, one);
+  EXPECT_TRUE(fs::exists(one.out + "/config.json"));
+  EXPECT_TRUE(fs::exists(one.out + "/cells/bc_seed0_rq2.json"));
+  EXPECT_FALSE(fs::exists(one.out + "/cells/diff_seed0_rq2.json")) << "--cell ran more than its cell";
+  one.out = e.out;
+  c.train.steps = 31;
+  try {
+    run_eval(c, one);
+    ADD_FAILURE() << "a cell ran in the folder of another config";
+  } catch (const Error& err) {
+    EXPECT_NE(std::string(err.what()).find("another config"), std::string::npos) << err.what();
+  }
   fs::remove_all(e.out);
+  fs::remove_all(fresh);
 }
 
 // A quick `train` run on the toy: `steps` steps at batch 32 on 3 demonstrations, 3 rollouts at every

@@ -298,7 +298,8 @@ void run_eval(const ExperimentConfig& config, const EvalOptions& o) {
     if (!stored_config_matches(o.out + "/config.json", config))
       throw Error(o.out + "/config.json: --report writes the report of the evaluation whose config this file holds, and it holds another "
                   "(give the same --task, --config and --quick as the evaluation)");
-  } else if (o.cell.empty()) {
+  } else if (o.cell.empty() || !fs::exists(o.out + "/config.json")) {
+    // a --cell run on its own in a new folder prepares it, as a whole evaluation would
     write_text(o.out + "/config.json", config_text);
   } else if (!stored_config_matches(o.out + "/config.json", config)) {
     // a cell's process (eval --jobs) runs in the folder its parent prepared, and only reads it
