@@ -63,6 +63,10 @@ rq2 = {r["method"]: r for r in csv.DictReader(open(d + "/rq2.csv"))}
 if rq2["bc"]["success_rate"] != "nan" or rq2["bc"]["seeds"] != "0":
     sys.exit(f"FAIL: a method without a finished RQ2 cell has {rq2['bc']}")
 PY
+# on a finished evaluation it says where the report came from, not a run time of its own
+"$bin" --threads 1 "${args[@]}" --report --out "$dir/one" > "$dir/full.log" 2>&1 || { cat "$dir/full.log"; exit 1; }
+grep -q "Written by \`eval --report\` from the finished cells" "$dir/one/report.md" && ! grep -q "Took " "$dir/one/report.md" ||
+  { echo "FAIL: --report on a finished evaluation claims a run time"; tail -3 "$dir/one/report.md"; exit 1; }
 # ... and it refuses a folder of another config, or none, naming the file
 if "$bin" eval --task nav2d --report --out "$dir/rq1" > "$dir/other.log" 2>&1; then echo "FAIL: --report read another config's cells"; exit 1; fi
 grep -q "rq1/config.json: --report writes the report of the evaluation whose config" "$dir/other.log" || { cat "$dir/other.log"; exit 1; }

@@ -193,7 +193,7 @@ void write_eval_report(const ExperimentConfig& config, const EvalOptions& o, con
                     "the member trained on all the demonstrations; the other members are bootstrapped. The three methods' policies are "
                     "one ensemble per seed, trained once: Diff-DAgger's is its member 0, the very policy its own update would train "
                     "(same initial weights, data and minibatches), so the methods differ only in the query rule.\n\n"
-                    "| Task | N_D | Method | TPR | TNR | F1 | Acc | TP | FP | TN | FN | rollout success | seeds |\n"
+                    "| Task | N_D | Method | TPR | TNR | F1 | Acc | TP | FP | TN | FN | rollout success | which seeds |\n"
                     "|---|---|---|---|---|---|---|---|---|---|---|---|---|\n",
                     config.rq1_demos,
                     config.train.from_scratch ? "the epoch rule" : fmt::format("{} steps", rq1_training(config).steps));
@@ -236,7 +236,7 @@ void write_eval_report(const ExperimentConfig& config, const EvalOptions& o, con
                     "Plots: `rq1_failure_prediction.png`, `rq2_success.png`, `rq3_wallclock.png`. "
                     "Each run's data set, checkpoints and query log are under `runs/`, each finished cell's numbers under `cells/`. "
                     "{}.\n",
-                    partial ? std::string("Written by `eval --report` from the finished cells")
+                    partial || o.report_only ? std::string("Written by `eval --report` from the finished cells")
                             : fmt::format("Took {}{}", format_duration(seconds),
                                           skipped > 0 ? fmt::format(" (and {} cells finished by an earlier, stopped run)", skipped) : ""));
   if (partial)
