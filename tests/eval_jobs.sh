@@ -49,6 +49,9 @@ cells_before=$(ls "$dir/rq1/cells" | wc -l)
 "$bin" --threads 1 "${args[@]}" --seeds 2 --report --out "$dir/rq1" > "$dir/partial.log" 2>&1 || { cat "$dir/partial.log"; exit 1; }
 [[ $(ls "$dir/rq1/cells" | wc -l) == "$cells_before" ]] || { echo "FAIL: --report ran a cell"; exit 1; }
 grep -q "Partial report" "$dir/rq1/report.md" || { echo "FAIL: the report does not say it is partial"; exit 1; }
+# a plot only where a cell finished: RQ1's, no empty RQ2 or RQ3 chart
+[[ -s $dir/rq1/rq1_failure_prediction.png && ! -e $dir/rq1/rq2_success.png && ! -e $dir/rq1/rq3_wallclock.png ]] &&
+  grep -q "Plots: \`rq1_failure_prediction.png\`\. " "$dir/rq1/report.md" || { echo "FAIL: empty plots written or listed"; ls "$dir/rq1"; exit 1; }
 grep -q "diff:0:rq2, thrifty:0:rq2, bc:0:rq2, diff:1:rq1, diff:1:rq2, thrifty:1:rq1, thrifty:1:rq2, bc:1:rq2" "$dir/rq1/report.md" ||
   { echo "FAIL: the missing cells are not listed"; cat "$dir/rq1/report.md"; exit 1; }
 /usr/bin/python3 - "$dir/rq1" <<'PY' || exit 1

@@ -5,6 +5,7 @@
 #include <fmt/format.h>
 
 #include <cmath>
+#include <filesystem>
 
 #include "app/experiments/shared.h"
 #include "core/method.h"
@@ -126,7 +127,8 @@ void write_eval_report(const ExperimentConfig& config, const EvalOptions& o, con
   write_text(o.out + "/rq2.csv", rq2);
   write_text(o.out + "/rq3.csv", rq3);
 
-  // Plots.
+  namespace fs = std::filesystem;
+  // Plots: one per RQ that has a finished cell (a partial report may have none for RQ2 and RQ3).
   auto bars = [&](const std::string& title, const std::string& label, auto value, bool gated_only) {
     ui::BarPanel p;
     p.title = title;
@@ -141,7 +143,7 @@ void write_eval_report(const ExperimentConfig& config, const EvalOptions& o, con
       p.errors.push_back(sd);
       p.colors.push_back(method_color(name));
     }
-    return ui::draw_bars(p);
+    return p;
   };
   const bool partial = !missing.empty();
   const std::string caption =
@@ -149,19 +151,26 @@ void write_eval_report(const ExperimentConfig& config, const EvalOptions& o, con
                             config.preset, o.seeds, o.episodes)
       : o.seeds > 1 ? fmt::format("task {} (preset {}): mean +- std over {} seeds, {} rollouts each", config.task, config.preset, o.seeds, o.episodes)
                   : fmt::format("task {} (preset {}): one seed, {} rollouts each", config.task, config.preset, o.episodes);
-  ui::write_png(o.out + "/rq1_failure_prediction.png",
-                ui::hstack({bars("RQ1: F1 of queries vs failures", "F1", [](const EvalRow& r) { return finite_mean_std(r.f1); }, true),
-                            bars("RQ1: accuracy", "accuracy", [](const EvalRow& r) { return finite_mean_std(r.acc); }, true)},
-                           caption));
-  ui::write_png(o.out + "/rq2_success.png",
-                ui::hstack({bars(fmt::format("RQ2: success after N_f = {}", d.final_demos), "success rate",
-                                 [](const EvalRow& r) { return mean_std(r.success); }, false)},
-                           caption));
-  ui::write_png(o.out + "/rq3_wallclock.png",
-                ui::hstack({bars("RQ3: training, final iteration", "seconds", [](const EvalRow& r) { return mean_std(r.last_train); }, false),
-                            bars("RQ3: threshold setting, final", "seconds", [](const EvalRow& r) { return mean_std(r.last_threshold); }, false),
-                            bars("RQ3: inference, final iteration", "seconds", [](const EvalRow& r) { return mean_std(r.last_inference); }, false)},
-                           caption));
+  std::vector<std::string> plots;
+  auto plot = [&](const std::string& file, const std::vector<ui::BarPanel>& panels) {
+    if (panels.front().values.empty()) {
+      fs::remove(o.out + "/" + file);  // an earlier report's, if any, would be of nothing now either
+      return;
+    }
+    std::vector<ui::Image> images;
+    for (const ui::BarPanel& p : panels) images.push_back(ui::draw_bars(p));
+    ui::write_png(o.out + "/" + file, ui::hstack(images, caption));
+    plots.push_back("`" + file + "`");
+  };
+  plot("rq1_failure_prediction.png",
+       {bars("RQ1: F1 of queries vs failures", "F1", [](const EvalRow& r) { return finite_mean_std(r.f1); }, true),
+        bars("RQ1: accuracy", "accuracy", [](const EvalRow& r) { return finite_mean_std(r.acc); }, true)});
+  plot("rq2_success.png", {bars(fmt::format("RQ2: success after N_f = {}", d.final_demos), "success rate",
+                                [](const EvalRow& r) { return mean_std(r.success); }, false)});
+  plot("rq3_wallclock.png",
+       {bars("RQ3: training, final iteration", "seconds", [](const EvalRow& r) { return mean_std(r.last_train); }, false),
+        bars("RQ3: threshold setting, final", "seconds", [](const EvalRow& r) { return mean_std(r.last_threshold); }, false),
+        bars("RQ3: inference, final iteration", "seconds", [](const EvalRow& r) { return mean_std(r.last_inference); }, false)});
 
   // Report.
   const std::string budget =
@@ -233,9 +242,10 @@ void write_eval_report(const ExperimentConfig& config, const EvalOptions& o, con
                       total({mean(r.train), mean(r.threshold), mean(r.inference)}), r.risk_data.empty() ? "-" : pm(r.risk_data));
   }
   md += fmt::format("\nInference is the time spent deciding during the robot's rollouts between two updates. "
-                    "Plots: `rq1_failure_prediction.png`, `rq2_success.png`, `rq3_wallclock.png`. "
+                    "Plots: {}. "
                     "Each run's data set, checkpoints and query log are under `runs/`, each finished cell's numbers under `cells/`. "
                     "{}.\n",
+                    plots.empty() ? std::string("none yet (no finished cell)") : fmt::format("{}", fmt::join(plots, ", ")),
                     partial || o.report_only ? std::string("Written by `eval --report` from the finished cells")
                             : fmt::format("Took {}{}", format_duration(seconds),
                                           skipped > 0 ? fmt::format(" (and {} cells finished by an earlier, stopped run)", skipped) : ""));
