@@ -65,7 +65,9 @@ Command add_eval(CLI::App& app) {
   auto* no_cache = cmd->add_flag("--no-train-cache", "train every ensemble update, even one that another cell of this folder "
                                  "trained on the same data from the same weights (by default its members are loaded from "
                                  "OUT/runs/ensemble_cache; the cost reported is the training's when it ran)");
-  cmd->add_option("--cell", o->eval.cell, "run only this cell, METHOD:SEED:rq1|rq2 (what --jobs starts)")->group("");
+  cmd->add_option("--cell", o->eval.cell,
+                  "run only this cell, METHOD:SEED:rq1|rq2 (SEED below --seeds), in OUT or in a new OUT it prepares; what --jobs gives "
+                  "each child, and a way to run an evaluation a cell at a time");
   return [o, no_cache] {
     ExperimentConfig c = resolve_config(o->task, o->config);
     EvalOptions e = o->eval;
