@@ -21,6 +21,7 @@
 
 #include <functional>
 #include <memory>
+#include <random>
 #include <string>
 #include <vector>
 
@@ -192,6 +193,7 @@ class DaggerSession {
   Control control_ = Control::kExpertDemo;
   int episode_ = 0, expert_demos_ = 0, interventions_ = 0, updates_ = 0, demos_at_last_update_ = -1, expert_failures_ = 0;
   uint64_t episode_seed_ = 0, decisions_ = 0;
+  std::mt19937_64 noise_rng_;  // the scripted expert's execution noise (Expert::execution_noise), seeded per episode
   Mat chunk_;
   int chunk_pos_ = 0;
   bool provided_ = false;

@@ -322,6 +322,36 @@ TEST(Session, BcDemonstratesNfEpisodesAndTrainsOnce) {
   EXPECT_EQ(s.interventions(), 0);
 }
 
+// A "+noise" expert (DART): the session records the expert's own actions and executes them with the
+// noise, as `collect` does; without noise the line is walked a step a time.
+TEST(Session, AnExpertWithExecutionNoiseIsRecordedCleanAndExecutedNoisy) {
+  auto demonstrations = [](float sigma) {
+    LineEnv env;
+    ForwardExpert expert;
+    if (sigma > 0) expert.execution_noise = Vec::Constant(1, sigma);
+    ScriptedMethod method({}, 1.f, /*gated=*/false);
+    DaggerConfig c = small_config();
+    c.final_demos = 2;
+    c.time_limit = 40;
+    DaggerSession s(env, expert, method, c, no_training());
+    run_to_end(s);
+    return s.expert_data();
+  };
+  for (float sigma : {0.f, 0.5f}) {
+    const std::vector<Episode> eps = demonstrations(sigma);
+    ASSERT_EQ(eps.size(), 2u);
+    int short_steps = 0;
+    for (const Episode& e : eps) {
+      EXPECT_TRUE((e.actions.array() == 1.f).all()) << "a recorded action is not the expert's own";
+      for (Eigen::Index t = 1; t < e.obs.rows(); ++t) short_steps += e.obs(t, 0) - e.obs(t - 1, 0) < 0.999f;
+    }
+    if (sigma == 0)
+      EXPECT_EQ(short_steps, 0);
+    else
+      EXPECT_GT(short_steps, 5) << "the noise was not executed";  // about half the steps draw negative noise
+  }
+}
+
 TEST(Session, StopsAtMaxEpisodesWhenTheRobotNeverNeedsHelp) {
   LineEnv env;
   ForwardExpert expert;
