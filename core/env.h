@@ -9,9 +9,11 @@
 #include <cstdint>
 #include <memory>
 #include <optional>
+#include <random>
 #include <string>
 #include <vector>
 
+#include "core/config.h"  // Error
 #include "core/types.h"
 
 namespace dd {
@@ -150,6 +152,35 @@ class Expert {
   Vec execution_noise;
   /// name() with "+noise" when execution_noise is set: how `collect` reports the expert.
   std::string label() const { return execution_noise.size() > 0 ? name() + "+noise" : name(); }
+};
+
+/// What a scripted expert's action becomes when executed: act() plus its execution noise, drawn from
+/// one stream per episode. `collect` (expert_episode) and the DAgger session both use it, so an episode
+/// seed gives the same draws in either.
+class ExecutionNoise {
+ public:
+  /// Throws dd::Error when the expert's noise has another length than the env's actions.
+  ExecutionNoise(const Expert& expert, int action_dim) : sigma_(expert.execution_noise) {
+    if (sigma_.size() > 0 && sigma_.size() != action_dim)
+      throw Error(expert.name() + ": execution noise has " + std::to_string(sigma_.size()) +
+                  " values, the actions " + std::to_string(action_dim));
+  }
+  /// Starts the episode's stream.
+  void reset(uint64_t episode_seed) {
+    rng_.seed(episode_seed ^ 0xDA27'0000'0000'0001ull);
+    normal_.reset();
+  }
+  /// The action as executed (unchanged when the expert has no noise).
+  Vec apply(const Vec& action) {
+    Vec executed = action;
+    for (Eigen::Index i = 0; i < sigma_.size(); ++i) executed[i] += sigma_[i] * normal_(rng_);
+    return executed;
+  }
+
+ private:
+  Vec sigma_;
+  std::mt19937_64 rng_;
+  std::normal_distribution<float> normal_{0.f, 1.f};
 };
 
 }  // namespace dd

@@ -157,18 +157,13 @@ RecordedEpisode expert_episode(Env& env, Expert& expert, uint64_t seed) {
   env.reset(seed);
   expert.reset(seed);
   std::vector<Vec> obs, act;
-  std::mt19937_64 rng(seed ^ 0xDA27'0000'0000'0001ull);
-  std::normal_distribution<float> noise(0.f, 1.f);
-  const Vec& sigma = expert.execution_noise;
-  if (sigma.size() > 0 && sigma.size() != env.action_dim())
-    throw Error(expert.name() + ": execution noise has " + std::to_string(sigma.size()) + " values, the actions " +
-                std::to_string(env.action_dim()));
+  ExecutionNoise noise(expert, env.action_dim());
+  noise.reset(seed);
   bool done = false;
   while (!done) {
     obs.push_back(env.observation());
-    act.push_back(expert.act(env));
-    Vec executed = act.back();  // recorded clean, executed with the noise (none when sigma is empty)
-    for (Eigen::Index i = 0; i < sigma.size(); ++i) executed[i] += sigma[i] * noise(rng);
+    act.push_back(expert.act(env));  // recorded clean, executed with the noise
+    const Vec executed = noise.apply(act.back());
     done = env.step(executed).done;
   }
   RecordedEpisode ep;

@@ -51,7 +51,8 @@ std::string to_string(EventKind k) {
 
 DaggerSession::DaggerSession(Env& env, Expert& expert, Method& method, const DaggerConfig& config, const TrainConfig& train,
                              DatasetWriter* writer)
-    : env_(env), expert_(expert), method_(method), config_(config), train_(train), writer_(writer), gate_(0.f, config.patience) {
+    : env_(env), expert_(expert), method_(method), config_(config), train_(train), writer_(writer), gate_(0.f, config.patience),
+      expert_noise_(expert, env.action_dim()) {
   config_.validate();
   train_.validate();
   if (config_.expert_time_limit == 0) config_.expert_time_limit = 2 * config_.time_limit;
@@ -129,15 +130,7 @@ bool DaggerSession::tick() {
   actors_.push_back(static_cast<uint8_t>(actor()));
   // A "+noise" scripted expert acts as in `collect` (expert_episode): its own action is recorded, its
   // action plus Gaussian noise is executed, in its demonstrations and its interventions alike.
-  Vec executed = action;
-  const Vec& sigma = expert_.execution_noise;
-  if (!robot && control_ != Control::kOperator && sigma.size() > 0) {
-    if (sigma.size() != action.size())
-      throw Error(expert_.name() + ": execution noise has " + std::to_string(sigma.size()) + " values, the actions " +
-                  std::to_string(action.size()));
-    std::normal_distribution<float> noise(0.f, 1.f);
-    for (Eigen::Index i = 0; i < sigma.size(); ++i) executed[i] += sigma[i] * noise(noise_rng_);
-  }
+  const Vec executed = !robot && control_ != Control::kOperator ? expert_noise_.apply(action) : action;
   if (env_.step(executed).done) end_episode();
   return !done_;
 }
@@ -209,7 +202,7 @@ void DaggerSession::start_episode() {
   episode_seed_ = config_.seed * 1000003ull + static_cast<uint64_t>(episode_);
   env_.reset(episode_seed_);
   expert_.reset(episode_seed_);
-  noise_rng_.seed(episode_seed_ ^ 0xDA27'0000'0000'0001ull);
+  expert_noise_.reset(episode_seed_);
   env_.set_time_limit(config_.expert_time_limit);
   gate_.reset();
   chunk_.resize(0, 0);

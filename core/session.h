@@ -134,6 +134,8 @@ class DaggerSession {
   /// True when the next tick() will ask the method for a decision (at a chunk boundary, or at every
   /// robot step with GateCadence::kStep).
   bool decision_due() const;
+  /// The seed the current (or last) episode's env, expert and execution noise were reset with.
+  uint64_t episode_seed() const { return episode_seed_; }
   /// The seed the next decision uses.
   uint64_t next_decision_seed() const { return episode_seed_ * 7919 + decisions_; }
   /// Hands in the decision for the next tick (computed elsewhere, e.g. on a worker thread, with
@@ -193,7 +195,7 @@ class DaggerSession {
   Control control_ = Control::kExpertDemo;
   int episode_ = 0, expert_demos_ = 0, interventions_ = 0, updates_ = 0, demos_at_last_update_ = -1, expert_failures_ = 0;
   uint64_t episode_seed_ = 0, decisions_ = 0;
-  std::mt19937_64 noise_rng_;  // the scripted expert's execution noise (Expert::execution_noise), seeded per episode
+  ExecutionNoise expert_noise_;  // the scripted expert's execution noise, restarted each episode
   Mat chunk_;
   int chunk_pos_ = 0;
   bool provided_ = false;

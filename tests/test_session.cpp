@@ -9,6 +9,7 @@
 
 #include "core/config.h"
 #include "core/dataset.h"
+#include "core/evaluation.h"
 #include "core/session.h"
 #include "tests/fakes.h"
 
@@ -335,10 +336,10 @@ TEST(Session, AnExpertWithExecutionNoiseIsRecordedCleanAndExecutedNoisy) {
     c.time_limit = 40;
     DaggerSession s(env, expert, method, c, no_training());
     run_to_end(s);
-    return s.expert_data();
+    return std::make_pair(s.expert_data(), s.episode_seed());
   };
   for (float sigma : {0.f, 0.5f}) {
-    const std::vector<Episode> eps = demonstrations(sigma);
+    const std::vector<Episode> eps = demonstrations(sigma).first;
     ASSERT_EQ(eps.size(), 2u);
     int short_steps = 0;
     for (const Episode& e : eps) {
@@ -350,6 +351,14 @@ TEST(Session, AnExpertWithExecutionNoiseIsRecordedCleanAndExecutedNoisy) {
     else
       EXPECT_GT(short_steps, 5) << "the noise was not executed";  // about half the steps draw negative noise
   }
+  // `collect` (expert_episode) draws the same noise for the same episode seed: the session's last
+  // demonstration is the one collect records with that seed.
+  const auto [eps, last_seed] = demonstrations(0.5f);
+  LineEnv env;
+  ForwardExpert expert;
+  expert.execution_noise = Vec::Constant(1, 0.5f);
+  const RecordedEpisode collected = expert_episode(env, expert, last_seed);
+  EXPECT_TRUE(collected.obs.isApprox(eps.back().obs)) << "collect and the session draw different noise";
 }
 
 TEST(Session, StopsAtMaxEpisodesWhenTheRobotNeverNeedsHelp) {
