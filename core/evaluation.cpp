@@ -5,7 +5,6 @@
 #include <map>
 #include <nlohmann/json.hpp>
 #include <spdlog/spdlog.h>
-#include <random>
 
 #include "core/gate.h"
 #include "core/isolate.h"
