@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <map>
@@ -12,6 +13,7 @@
 #include <nlohmann/json.hpp>
 
 #include "app/experiments.h"
+#include "app/experiments/shared.h"
 #include "core/dataset.h"
 #include "core/evaluation.h"
 #include "core/text_file.h"
@@ -38,6 +40,15 @@ ExperimentConfig quick_config() {
 }
 
 }  // namespace
+
+// Reports quote spread over a handful of seeds, so it is the sample standard deviation (n - 1).
+TEST(Report, SpreadOverSeedsIsTheSampleStandardDeviation) {
+  const auto [m, s] = mean_std({0.85, 0.88, 0.77});
+  EXPECT_NEAR(m, 0.8333, 1e-4);
+  EXPECT_NEAR(s, 0.0569, 1e-4);  // the population formula would give 0.0465
+  EXPECT_EQ(mean_std({0.5}).second, 0.0);
+  EXPECT_TRUE(std::isnan(mean_std({}).first));
+}
 
 TEST(DaggerNav2d, DiffDaggerIsNoWorseThanBcWithTheSameExpertBudget) {
   const ExperimentConfig c = quick_config();

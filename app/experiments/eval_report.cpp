@@ -149,7 +149,7 @@ void write_eval_report(const ExperimentConfig& config, const EvalOptions& o, con
   const std::string caption =
       partial ? fmt::format("task {} (preset {}): partial, each bar over the seeds finished (up to {}), {} rollouts each", config.task,
                             config.preset, o.seeds, o.episodes)
-      : o.seeds > 1 ? fmt::format("task {} (preset {}): mean +- std over {} seeds, {} rollouts each", config.task, config.preset, o.seeds, o.episodes)
+      : o.seeds > 1 ? fmt::format("task {} (preset {}): mean +- sample std over {} seeds, {} rollouts each", config.task, config.preset, o.seeds, o.episodes)
                   : fmt::format("task {} (preset {}): one seed, {} rollouts each", config.task, config.preset, o.episodes);
   std::vector<std::string> plots;
   auto plot = [&](const std::string& file, const std::vector<ui::BarPanel>& panels) {
@@ -177,7 +177,7 @@ void write_eval_report(const ExperimentConfig& config, const EvalOptions& o, con
       config.train.from_scratch
           ? fmt::format("every update retrains from scratch for {} epochs (at most {} steps)", config.train.epochs, config.train.max_steps)
           : fmt::format("{} training steps per update, continuing from the previous weights", config.train.steps);
-  std::string md = fmt::format("# Evaluation on {} (preset {}, expert {}){}\n\n{}{} seed(s), {} rollouts per measurement{}. "
+  std::string md = fmt::format("# Evaluation on {} (preset {}, expert {}){}\n\n{}{} seed(s), {} rollouts per measurement{}{}. "
                                "Schedule: N_i {}, N_f {}, N_d {}, alpha {}, K {} (the gate scores every {}), T_L {}, T_p {}, T_a {}; {}. "
                                "Thresholds over {} training pairs; the loss is scored with the {} weights, in {} space.\n\n",
                                config.task, config.preset, config.expert, partial ? ", in progress" : "",
@@ -185,7 +185,7 @@ void write_eval_report(const ExperimentConfig& config, const EvalOptions& o, con
                                                      "each row is over the seeds it has, named in its row. ",
                                                      missing.size())
                                        : "",
-                               o.seeds, o.episodes,
+                               o.seeds, o.episodes, o.seeds > 1 ? "; +- is the sample standard deviation over seeds" : "",
                                o.quick ? " (quick run: tiny budgets and 3-member ensembles, a smoke test; read with care)" : "",
                                d.initial_demos, d.final_demos, d.demos_per_update, config.method.alpha, d.patience, to_string(d.gate_every),
                                d.time_limit, config.policy.horizon, config.policy.action_steps, budget,

@@ -54,8 +54,9 @@ std::pair<double, double> mean_std(const std::vector<double>& v) {
   double m = 0, s = 0;
   for (double x : v) m += x;
   m /= v.size();
+  if (v.size() == 1) return {m, 0.0};
   for (double x : v) s += (x - m) * (x - m);
-  return {m, std::sqrt(s / v.size())};
+  return {m, std::sqrt(s / (v.size() - 1))};
 }
 
 double mean(const std::vector<double>& v) { return mean_std(v).first; }

@@ -16,7 +16,7 @@ namespace fs = std::filesystem;
 
 /// Creates `dir` and its parents; throws Error naming it when it cannot.
 void make_dirs(const std::string& dir);
-/// Mean and (population) standard deviation; NaN for an empty set.
+/// Mean and sample standard deviation (n - 1; 0 for one value); NaN for an empty set.
 std::pair<double, double> mean_std(const std::vector<double>& v);
 double mean(const std::vector<double>& v);
 /// The resume point a stopped run left in `out` (the JSON file `marker`, with the integer fields
