@@ -50,6 +50,18 @@ TEST(Report, SpreadOverSeedsIsTheSampleStandardDeviation) {
   EXPECT_TRUE(std::isnan(mean_std({}).first));
 }
 
+// Values from the hypergeometric law, summed by hand (math.comb) outside this code.
+TEST(Report, FisherExactTestOfAskingAgainstFailing) {
+  EXPECT_NEAR(fisher_exact_p(3, 1, 1, 3), 0.4857, 1e-4);          // the tea-tasting table
+  EXPECT_NEAR(fisher_exact_p(23, 18, 31, 28), 0.8388, 1e-4);      // push_1expert, Diff-DAgger, seed 0
+  EXPECT_NEAR(fisher_exact_p(12, 6, 42, 40), 0.2999, 1e-4);       // push_1expert, the ensemble's spread
+  EXPECT_NEAR(fisher_exact_p(10, 0, 0, 10), 1.0825e-5, 1e-8);     // a perfect rule, 10 failures in 20
+  EXPECT_NEAR(fisher_exact_p(0, 10, 10, 0), 1.0825e-5, 1e-8);     // two-sided: a perfectly wrong rule too
+  EXPECT_LT(fisher_exact_p(177, 12, 5, 106), 1e-50);              // stacking's three seeds pooled
+  EXPECT_DOUBLE_EQ(fisher_exact_p(0, 0, 5, 5), 1.0);              // a rule that never asks tells nothing
+  EXPECT_THROW(fisher_exact_p(-1, 0, 0, 0), Error);
+}
+
 TEST(DaggerNav2d, DiffDaggerIsNoWorseThanBcWithTheSameExpertBudget) {
   const ExperimentConfig c = quick_config();
   auto env = make_env(c.task);
@@ -286,6 +298,20 @@ TEST(DaggerNav2d, QuickEvaluationWritesEveryFile) {
   std::ifstream rq1b(e.out + "/rq1.csv");
   std::getline(rq1b, header);
   EXPECT_NE(header.find(",tp,fp,tn,fn,"), std::string::npos) << header;
+  // and each row's Fisher p is the test of those counts
+  EXPECT_NE(header.find(",fisher_p"), std::string::npos) << header;
+  {
+    std::vector<std::string> names;
+    std::istringstream h(header);
+    for (std::string x; std::getline(h, x, ',');) names.push_back(x);
+    for (std::string row; std::getline(rq1b, row);) {
+      std::map<std::string, std::string> f;
+      std::istringstream r(row);
+      for (size_t i = 0; i < names.size() && std::getline(r, line, ','); ++i) f[names[i]] = line;
+      const double p = fisher_exact_p(std::stol(f["tp"]), std::stol(f["fp"]), std::stol(f["fn"]), std::stol(f["tn"]));
+      EXPECT_NEAR(std::stod(f["fisher_p"]), p, 0.006 * p + 1e-12) << row;  // printed to 3 significant figures
+    }
+  }
   const std::string report = [&] {
     std::ifstream r(e.out + "/report.md");
     std::stringstream ss;

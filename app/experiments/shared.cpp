@@ -61,6 +61,20 @@ std::pair<double, double> mean_std(const std::vector<double>& v) {
 
 double mean(const std::vector<double>& v) { return mean_std(v).first; }
 
+double fisher_exact_p(long asked_failed, long asked_succeeded, long quiet_failed, long quiet_succeeded) {
+  if (std::min({asked_failed, asked_succeeded, quiet_failed, quiet_succeeded}) < 0) throw Error("fisher_exact_p: a negative count");
+  const long asked = asked_failed + asked_succeeded, failed = asked_failed + quiet_failed;
+  const long n = asked + quiet_failed + quiet_succeeded;
+  auto log_choose = [](long k, long j) { return std::lgamma(k + 1.0) - std::lgamma(j + 1.0) - std::lgamma(k - j + 1.0); };
+  // log P(asked_failed = x) with both margins fixed
+  auto log_p = [&](long x) { return log_choose(failed, x) + log_choose(n - failed, asked - x) - log_choose(n, asked); };
+  const double observed = log_p(asked_failed);
+  double p = 0;
+  for (long x = std::max(0L, asked - (n - failed)); x <= std::min(asked, failed); ++x)
+    if (log_p(x) <= observed + 1e-7) p += std::exp(log_p(x));  // ties within rounding count as no more likely
+  return std::min(1.0, p);
+}
+
 std::vector<Episode> collect_demos(const std::string& task, const std::string& mode, int n, uint64_t seed) {
   auto env = make_env(task);
   auto expert = make_expert(task, mode);

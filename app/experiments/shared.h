@@ -19,6 +19,10 @@ void make_dirs(const std::string& dir);
 /// Mean and sample standard deviation (n - 1; 0 for one value); NaN for an empty set.
 std::pair<double, double> mean_std(const std::vector<double>& v);
 double mean(const std::vector<double>& v);
+/// Two-sided Fisher exact test of a 2x2 table (rows: the rule asked / did not ask; columns: the
+/// rollout failed / succeeded): the probability, with the margins fixed, of a table no more likely
+/// than this one. Written from the hypergeometric law with lgamma (no statistics library is packaged).
+double fisher_exact_p(long asked_failed, long asked_succeeded, long quiet_failed, long quiet_succeeded);
 /// The resume point a stopped run left in `out` (the JSON file `marker`, with the integer fields
 /// `required`), or null when there is none. A point left by a run with another config is refused.
 nlohmann::json read_resume_point(const std::string& out, const std::string& marker, const ExperimentConfig& config,
