@@ -32,6 +32,24 @@ std::string temp_dir(const std::string& name) {
   return p.string();
 }
 
+// A CSV file's rows as header name -> field (the experiments' CSVs have no quoted fields).
+std::vector<std::map<std::string, std::string>> read_csv(const std::string& path) {
+  std::ifstream in(path);
+  std::string line;
+  std::vector<std::string> names;
+  std::getline(in, line);
+  std::istringstream h(line);
+  for (std::string x; std::getline(h, x, ',');) names.push_back(x);
+  std::vector<std::map<std::string, std::string>> rows;
+  while (std::getline(in, line)) {
+    std::istringstream r(line);
+    auto& row = rows.emplace_back();
+    for (size_t i = 0; i < names.size() && std::getline(r, row[names[i]], ','); ++i) {
+    }
+  }
+  return rows;
+}
+
 ExperimentConfig quick_config() {
   ExperimentConfig c = preset("nav2d_random");
   EvalOptions e;
@@ -300,17 +318,9 @@ TEST(DaggerNav2d, QuickEvaluationWritesEveryFile) {
   EXPECT_NE(header.find(",tp,fp,tn,fn,"), std::string::npos) << header;
   // and each row's Fisher p is the test of those counts
   EXPECT_NE(header.find(",fisher_p"), std::string::npos) << header;
-  {
-    std::vector<std::string> names;
-    std::istringstream h(header);
-    for (std::string x; std::getline(h, x, ',');) names.push_back(x);
-    for (std::string row; std::getline(rq1b, row);) {
-      std::map<std::string, std::string> f;
-      std::istringstream r(row);
-      for (size_t i = 0; i < names.size() && std::getline(r, line, ','); ++i) f[names[i]] = line;
-      const double p = fisher_exact_p(std::stol(f["tp"]), std::stol(f["fp"]), std::stol(f["fn"]), std::stol(f["tn"]));
-      EXPECT_NEAR(std::stod(f["fisher_p"]), p, 0.006 * p + 1e-12) << row;  // printed to 3 significant figures
-    }
+  for (auto& f : read_csv(e.out + "/rq1.csv")) {
+    const double p = fisher_exact_p(std::stol(f["tp"]), std::stol(f["fp"]), std::stol(f["fn"]), std::stol(f["tn"]));
+    EXPECT_NEAR(std::stod(f["fisher_p"]), p, 0.006 * p + 1e-12) << f["method"];  // printed to 3 significant figures
   }
   const std::string report = [&] {
     std::ifstream r(e.out + "/report.md");
@@ -320,6 +330,16 @@ TEST(DaggerNav2d, QuickEvaluationWritesEveryFile) {
   }();
   EXPECT_NE(report.find("| TP | FP | TN | FN |"), std::string::npos);
   EXPECT_NE(report.find("final iteration"), std::string::npos);
+  // RQ3's ratios against Diff-DAgger are those of rq3.csv's means per iteration
+  {
+    std::map<std::string, double> train_s;
+    for (auto& f : read_csv(e.out + "/rq3.csv")) train_s[f["method"]] = std::stod(f["train_s"]);
+    const double want = train_s["ensemble"] / train_s["diff"];
+    const size_t at = report.find("| Ensemble-DAgger | ", report.find("| Method / Diff-DAgger |"));
+    ASSERT_NE(at, std::string::npos) << report;
+    const double got = std::atof(report.c_str() + at + std::string("| Ensemble-DAgger | ").size());
+    EXPECT_NEAR(got, want, 0.06 * want) << report.substr(at, 80);  // two significant figures of a ratio of rounded means
+  }
 
   // Ensemble-DAgger's and Thrifty-DAgger's first updates train the same members on the same
   // demonstrations: whichever cell runs second loads them from the folder's cache and reports the
