@@ -69,6 +69,23 @@ TEST_F(BimodalPolicy, SamplesBothModesAndSeldomBetween) {
   EXPECT_LE(between, 20) << "plus " << plus << " minus " << minus << " between " << between;
 }
 
+// sample_batch samples many rows in blocks (512 rows) from one generator: every row comes back, the
+// first block draws what it draws alone, and a later block continues the stream instead of
+// restarting it (the same observation in rows 0 and 512 gets different chunks).
+TEST_F(BimodalPolicy, ABatchOfSeveralBlocksComesBackWholeFromOneNoiseStream) {
+  const Mat many = data_->obs.row(0).replicate(1100, 1);
+  const std::vector<Mat> chunks = policy_->sample_batch(many, /*seed=*/5);
+  ASSERT_EQ(chunks.size(), 1100u);
+  const std::vector<Mat> first_block = policy_->sample_batch(many.topRows(512), /*seed=*/5);
+  for (size_t i = 0; i < first_block.size(); ++i) ASSERT_TRUE((chunks[i].array() == first_block[i].array()).all()) << "row " << i;
+  EXPECT_FALSE(chunks[512].isApprox(chunks[0], 1e-6f));
+  EXPECT_FALSE(chunks[1024].isApprox(chunks[512], 1e-6f));
+  int plus = 0;
+  for (size_t i = 512; i < chunks.size(); ++i) plus += bimodal_mode(chunks[i]) > 0;
+  EXPECT_GT(plus, 100) << "the later blocks sample both modes too";
+  EXPECT_LT(plus, 488) << "the later blocks sample both modes too";
+}
+
 TEST_F(BimodalPolicy, ExpectedLossOfTrainingPairsIsBelowOutOfDistribution) {
   int separated = 0;
   const int n = 100;

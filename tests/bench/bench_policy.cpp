@@ -157,6 +157,27 @@ void EnsembleDecision(benchmark::State& state, const PolicyConfig& config, bool 
   for (auto _ : state) benchmark::DoNotOptimize(ensemble.decide(obs, seed++));
 }
 
+// One member's chunks for many training observations (the bench's rows repeated), as an ensemble's
+// threshold samples them: sample_batch's blocks, or every row in one denoising loop as before the
+// blocks. Counter `rows_per_s`.
+void SampleManyRows(benchmark::State& state, PolicyConfig config, bool one_batch) {
+  config.horizon = 32;
+  DiffusionPolicy policy(config, 0);
+  const Mat& base = bench_data().obs;
+  Mat obs(state.range(0), base.cols());
+  for (Eigen::Index i = 0; i < obs.rows(); ++i) obs.row(i) = base.row(i % base.rows());
+  uint64_t seed = 0;
+  for (auto _ : state) {
+    if (one_batch) {
+      torch::Generator gen = make_generator(seed++);
+      benchmark::DoNotOptimize(policy.impl().sample(policy.impl().obs_tensor(obs), gen));
+    } else {
+      benchmark::DoNotOptimize(policy.sample_batch(obs, seed++));
+    }
+  }
+  state.counters["rows_per_s"] = benchmark::Counter(static_cast<double>(state.range(0)), benchmark::Counter::kIsIterationInvariantRate);
+}
+
 // One sampling of B rows at once (T_p 32), B = state.range(0): where FastDenoiser's lead at batch 1
 // turns into a loss against torch's oneDNN convolutions.
 void SampleRows(benchmark::State& state, PolicyConfig config, bool torch_denoise) {
@@ -294,6 +315,8 @@ BENCHMARK_CAPTURE(EnsembleSpread, 32_64_128, kCpuDefault, false, true)->Name("BM
 BENCHMARK_CAPTURE(EnsembleSpread, 32_64_128, kCpuDefault, true, true)->Name("BM_EnsembleSpreadTorch_32_64_128")->Unit(benchmark::kMillisecond)->MeasureProcessCPUTime()->UseRealTime();
 BENCHMARK_CAPTURE(EnsembleSpread, 32_64_128, kCpuDefault, false, false)->Name("BM_EnsembleSpreadSerial_32_64_128")->Unit(benchmark::kMillisecond)->MeasureProcessCPUTime()->UseRealTime();
 BENCHMARK_CAPTURE(EnsembleSpread, 32_64_128, kCpuDefault, true, false)->Name("BM_EnsembleSpreadTorchSerial_32_64_128")->Unit(benchmark::kMillisecond)->MeasureProcessCPUTime()->UseRealTime();
+BENCHMARK_CAPTURE(SampleManyRows, blocks, kCpuDefault, false)->Name("BM_SampleManyRows_32_64_128")->Arg(512)->Arg(16384)->Unit(benchmark::kMillisecond)->Iterations(1)->UseRealTime();
+BENCHMARK_CAPTURE(SampleManyRows, one_batch, kCpuDefault, true)->Name("BM_SampleManyRowsOneBatch_32_64_128")->Arg(512)->Arg(16384)->Unit(benchmark::kMillisecond)->Iterations(1)->UseRealTime();
 BENCHMARK_CAPTURE(EnsembleTrain, 32_64_128, kCpuDefault, true)->Name("BM_EnsembleTrain_32_64_128")->Unit(benchmark::kMillisecond)->MeasureProcessCPUTime()->UseRealTime();
 BENCHMARK_CAPTURE(EnsembleTrain, 32_64_128, kCpuDefault, true, false)->Name("BM_EnsembleTrainThreads_32_64_128")->Unit(benchmark::kMillisecond)->MeasureProcessCPUTime()->UseRealTime();
 BENCHMARK_CAPTURE(EnsembleTrain, 32_64_128, kCpuDefault, false)->Name("BM_EnsembleTrainSerial_32_64_128")->Unit(benchmark::kMillisecond)->MeasureProcessCPUTime()->UseRealTime();
