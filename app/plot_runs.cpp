@@ -10,6 +10,7 @@
 #include <nlohmann/json.hpp>
 
 #include "app/experiments.h"
+#include "app/experiments/shared.h"
 #include "core/method.h"
 #include "core/text_file.h"
 #include "ui/plot.h"
@@ -92,15 +93,6 @@ bool asks(const Run& r) {
   return std::any_of(r.events.begin(), r.events.end(), [](const json& e) { return e["event"] == "decision"; });
 }
 
-std::pair<double, double> mean_and_std(const std::vector<double>& v) {
-  if (v.empty()) return {NAN, NAN};
-  double m = 0, s = 0;
-  for (double x : v) m += x;
-  m /= static_cast<double>(v.size());
-  for (double x : v) s += (x - m) * (x - m);
-  return {m, std::sqrt(s / static_cast<double>(v.size()))};
-}
-
 }  // namespace
 
 std::vector<std::string> plot_runs(const PlotOptions& o) {
@@ -141,9 +133,9 @@ std::vector<std::string> plot_runs(const PlotOptions& o) {
     for (const Run& r : runs) {
       const Iterations it = iterations(r);
       if (it.train.empty()) continue;  // no update yet
-      const auto [tr, tr_sd] = mean_and_std(it.train);
-      const auto [th, th_sd] = mean_and_std(it.threshold);
-      const auto [in, in_sd] = it.inference.empty() ? std::pair<double, double>{0, 0} : mean_and_std(it.inference);
+      const auto [tr, tr_sd] = mean_std(it.train);
+      const auto [th, th_sd] = mean_std(it.threshold);
+      const auto [in, in_sd] = it.inference.empty() ? std::pair<double, double>{0, 0} : mean_std(it.inference);
       const double values[4] = {tr, th, in, tr + th + in}, errors[4] = {tr_sd, th_sd, in_sd, 0};
       csv += fmt::format("{},{},{},{:.4f},{:.4f},{:.4f},{:.4f},{:.4f},{:.4f},{:.4f}\n", r.method, asks(r) ? "yes" : "no", it.train.size(), tr,
                          tr_sd, th, th_sd, in, in_sd, tr + th + in);
