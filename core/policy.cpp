@@ -326,10 +326,10 @@ void DiffusionPolicy::set_normalizers(Normalizer obs, Normalizer action) {
 
 std::vector<Mat> DiffusionPolicy::sample_batch(const Mat& obs, uint64_t seed) const {
   // Blocks of kSampleRowsPerPass rows, one after another, all drawing from one generator. An
-  // ensemble's threshold samples every training observation: in one batch of 21,000 rows the
-  // conditioning and activations take gigabytes, and a row costs about three times what it does
-  // in blocks (bench_policy's SampleOneBatch against SampleRows). A batch of at most one block
-  // draws the very noise it drew before blocks.
+  // ensemble's threshold samples every training observation: in one batch of 16,384 rows the
+  // conditioning and activations take gigabytes, and a row costs six times as much as in blocks
+  // (bench_policy's SampleManyRowsOneBatch against SampleManyRows). A batch of at most one block
+  // draws the very noise it drew before the blocks.
   torch::Generator gen = make_generator(seed);
   std::vector<Mat> out;
   out.reserve(static_cast<size_t>(obs.rows()));
