@@ -23,13 +23,13 @@ namespace {
 constexpr int kRowsPerPass = 2048;
 
 // Rows per denoising loop when sampling many chunks (sample_batch).
-constexpr Eigen::Index kSampleRowsPerPass = 512;
+constexpr int64_t kSampleRowsPerPass = 512;
 
-// Calls fn(start, len) over the pairs [0, n) in blocks of about kRowsPerPass rows, `rows_per_pair`
-// rows to a pair.
+// Calls fn(start, len) over the pairs [0, n) in blocks of about `rows_per_pass` rows,
+// `rows_per_pair` rows to a pair.
 template <class Fn>
-void for_each_block(int64_t n, int rows_per_pair, Fn&& fn) {
-  const int64_t per_pass = std::max<int64_t>(1, kRowsPerPass / rows_per_pair);
+void for_each_block(int64_t n, int rows_per_pair, Fn&& fn, int64_t rows_per_pass = kRowsPerPass) {
+  const int64_t per_pass = std::max<int64_t>(1, rows_per_pass / rows_per_pair);
   for (int64_t start = 0; start < n; start += per_pass) fn(start, std::min<int64_t>(per_pass, n - start));
 }
 
@@ -333,11 +333,13 @@ std::vector<Mat> DiffusionPolicy::sample_batch(const Mat& obs, uint64_t seed) co
   torch::Generator gen = make_generator(seed);
   std::vector<Mat> out;
   out.reserve(static_cast<size_t>(obs.rows()));
-  for (Eigen::Index start = 0; start < obs.rows(); start += kSampleRowsPerPass) {
-    const Eigen::Index len = std::min<Eigen::Index>(kSampleRowsPerPass, obs.rows() - start);
-    const torch::Tensor x = impl_->sample(impl_->obs_tensor(obs.middleRows(start, len)), gen);
-    for (int64_t b = 0; b < x.size(0); ++b) out.push_back(impl_->raw_chunk(x[b], obs.row(start + b).transpose()));
-  }
+  for_each_block(
+      obs.rows(), 1,
+      [&](int64_t start, int64_t len) {
+        const torch::Tensor x = impl_->sample(impl_->obs_tensor(obs.middleRows(start, len)), gen);
+        for (int64_t b = 0; b < x.size(0); ++b) out.push_back(impl_->raw_chunk(x[b], obs.row(start + b).transpose()));
+      },
+      kSampleRowsPerPass);
   return out;
 }
 
