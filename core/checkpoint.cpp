@@ -34,6 +34,15 @@ void open_checkpoint(const std::string& path, Contents& out) {
   if (!out.archive.try_read("config", config) || !config.isString())
     throw Error(path + ": checkpoint has no field 'config'");
   out.config = policy_config_from_json(config.toStringRef(), path + " (field 'config')");
+  // A corrupt config can describe a network of terabytes: before one is built to load into, the file
+  // must be large enough to hold its weights (float32, the model's and the EMA's).
+  const int64_t n = nn::parameter_count(out.config.action_dim, out.config.obs_dim, out.config.unet);
+  const double need = 2.0 * sizeof(float) * static_cast<double>(n);
+  const auto size = std::filesystem::file_size(path);
+  if (need > static_cast<double>(size))
+    throw Error(path + ": field 'config' describes a network of " + std::to_string(n) + " parameters (" +
+                std::to_string(static_cast<int64_t>(need / 1e6)) + " MB of weights with its EMA copy), more than the whole file (" +
+                std::to_string(size) + " bytes) holds");
 }
 
 void read_into(const std::string& path, Contents& c, DiffusionPolicy::Impl& impl) {
@@ -42,10 +51,7 @@ void read_into(const std::string& path, Contents& c, DiffusionPolicy::Impl& impl
     torch::serialize::InputArchive model, ema;
     c.archive.read("model", model);
     c.archive.read("ema", ema);
-    impl.model->load(model);
-    impl.ema->load(ema);
-    check_module(*impl.model, path, "model.");
-    check_module(*impl.ema, path, "ema.");
+    load_modules_checked({{*impl.model, model, "model."}, {*impl.ema, ema, "ema."}}, path);
     impl.obs_norm = std::move(obs_norm);
     impl.act_norm = std::move(act_norm);
   } catch (const c10::Error& e) {

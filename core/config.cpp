@@ -66,29 +66,43 @@ UnetConfig unet_preset(const std::string& name) {
   throw Error("unet preset '" + name + "' is not one of tiny, cpu, medium, paper");
 }
 
+// Upper bounds far beyond any network this project trains (the paper's is down_dims 256,512,1024,
+// kernel 5, T_p 16). They keep every size computed from a config inside int, and make a corrupt
+// checkpoint's config an Error here rather than an allocation of terabytes (tests/fuzz found both).
+namespace limits {
+constexpr int kObsDim = 1 << 16, kActionDim = 1 << 10, kHorizon = 1 << 12, kLevels = 8, kChannels = 1 << 14,
+              kGroups = 1 << 10, kKernel = 63, kStepEmbed = 1 << 14;
+}
+
 void PolicyConfig::validate() const {
-  check(obs_dim > 0, "obs_dim", "must be positive");
-  check(action_dim > 0, "action_dim", "must be positive");
-  check(horizon > 0, "horizon", "must be positive");
+  const auto in = [](int v, int lo, int hi) { return v >= lo && v <= hi; };
+  const auto range = [](int lo, int hi) { return "must be in [" + std::to_string(lo) + ", " + std::to_string(hi) + "]"; };
+  check(in(obs_dim, 1, limits::kObsDim), "obs_dim", range(1, limits::kObsDim));
+  check(in(action_dim, 1, limits::kActionDim), "action_dim", range(1, limits::kActionDim));
+  check(in(horizon, 1, limits::kHorizon), "horizon", range(1, limits::kHorizon));
   check(action_steps > 0 && action_steps <= horizon, "action_steps", "must be in [1, horizon]");
-  std::vector<bool> relative(static_cast<size_t>(std::max(action_dim, 0)), false);
+  std::vector<bool> relative(static_cast<size_t>(action_dim), false);
   for (const auto& [a, o] : relative_actions) {
     check(a >= 0 && a < action_dim && o >= 0 && o < obs_dim, "relative_actions",
           "pair [" + std::to_string(a) + ", " + std::to_string(o) + "] is not [action index < action_dim, observation index < obs_dim]");
     check(!relative[static_cast<size_t>(a)], "relative_actions", "action index " + std::to_string(a) + " appears twice");
     relative[static_cast<size_t>(a)] = true;
   }
-  check(!unet.down_dims.empty(), "unet.down_dims", "must not be empty");
+  // n_groups and the number of levels first: the checks below divide and shift by them
+  check(in(unet.n_groups, 1, limits::kGroups), "unet.n_groups", range(1, limits::kGroups));
   const int levels = static_cast<int>(unet.down_dims.size());
+  check(in(levels, 1, limits::kLevels), "unet.down_dims", "must have 1 to " + std::to_string(limits::kLevels) + " entries");
   check(horizon % (1 << (levels - 1)) == 0, "horizon",
         "must be divisible by 2^(levels-1) = " + std::to_string(1 << (levels - 1)));
   for (int d : unet.down_dims) {
-    check(d > 0 && d % unet.n_groups == 0, "unet.down_dims",
-          "every entry must be a positive multiple of n_groups (" + std::to_string(unet.n_groups) + ")");
+    check(in(d, 1, limits::kChannels) && d % unet.n_groups == 0, "unet.down_dims",
+          "every entry must be a multiple of n_groups (" + std::to_string(unet.n_groups) + ") in [1, " +
+              std::to_string(limits::kChannels) + "]");
   }
-  check(unet.kernel_size > 0 && unet.kernel_size % 2 == 1, "unet.kernel_size", "must be odd and positive");
-  check(unet.step_embed_dim > 0 && unet.step_embed_dim % 2 == 0, "unet.step_embed_dim",
-        "must be even and positive");
+  check(in(unet.kernel_size, 1, limits::kKernel) && unet.kernel_size % 2 == 1, "unet.kernel_size",
+        "must be odd and in [1, " + std::to_string(limits::kKernel) + "]");
+  check(in(unet.step_embed_dim, 2, limits::kStepEmbed) && unet.step_embed_dim % 2 == 0, "unet.step_embed_dim",
+        "must be even and in [2, " + std::to_string(limits::kStepEmbed) + "]");
   check(scheduler.num_train_timesteps >= 1 && scheduler.num_train_timesteps <= 1000,
         "scheduler.num_train_timesteps", "must be in [1, 1000]");
   check(scheduler.num_inference_steps >= 1 &&

@@ -145,10 +145,7 @@ void RiskCritic::load(const std::string& path) {
     auto [obs_norm, act_norm] = read_normalizers(archive, path, impl_->obs_dim, impl_->action_dim, "this critic's observations and actions");
     archive.read("q1", q1);
     archive.read("q2", q2);
-    impl_->q1->load(q1);
-    impl_->q2->load(q2);
-    check_module(*impl_->q1, path, "q1.");
-    check_module(*impl_->q2, path, "q2.");
+    load_modules_checked({{*impl_->q1, q1, "q1."}, {*impl_->q2, q2, "q2."}}, path);
     impl_->obs_norm = std::move(obs_norm);
     impl_->act_norm = std::move(act_norm);
   } catch (const c10::Error& e) {

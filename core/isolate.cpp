@@ -14,6 +14,10 @@
 #include <cstdint>
 #include <cstdlib>
 #include <cstring>
+#include <fstream>
+#include <iterator>
+#include <sstream>
+#include <utility>
 
 #include "core/config.h"
 #include "core/runtime.h"
@@ -57,11 +61,36 @@ bool write_all(int fd, const char* p, size_t n) {
 int children_crashed() { return g_crashed.load(); }
 int children_started() { return g_started.load(); }
 
-std::string read_in_child(const std::string& path, const std::string& library, const std::function<std::string()>& read) {
-  // tests/fuzz/run.sh --deep: in process, so that the fuzzer sees the reading code's coverage (and
-  // libFuzzer's fork mode survives the libraries' crashes)
-  static const bool in_process = std::getenv("DD_READ_IN_PROCESS") != nullptr;
-  if (in_process) return read();
+namespace {
+
+// A child that deadlocks at once (a lock that another thread of this process held at the fork stays
+// held in the child: clang 14's ASan allocator takes none of its locks around fork, and libtorch's
+// own locks are not fork-aware) would hang its reader forever. Such a child sleeps without using any
+// CPU; one that reads or parses does not, and one waiting on a disk is in state D, not S.
+constexpr int kPollMs = 500;
+constexpr int kStalledPolls = 6;  // 3 s asleep without a clock tick of CPU
+constexpr int kTries = 3;
+
+// The process's CPU time so far in clock ticks and its state letter, from /proc/PID/stat.
+std::pair<long long, char> cpu_and_state(pid_t pid) {
+  std::ifstream f("/proc/" + std::to_string(pid) + "/stat");
+  const std::string s((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
+  const size_t close = s.rfind(')');  // the command name in parentheses may hold spaces
+  if (close == std::string::npos || close + 2 >= s.size()) return {-1, '?'};
+  std::istringstream in(s.substr(close + 2));
+  char state = '?';
+  std::string skip;
+  long long user = 0, system = 0;
+  in >> state;
+  for (int field = 4; field <= 13; ++field) in >> skip;
+  in >> user >> system;
+  return {user + system, state};
+}
+
+enum class Outcome { kFinished, kStalled };
+
+// One child: forks, runs `read` in it, collects what it sends and its exit status.
+Outcome read_once(const std::function<std::string()>& read, const std::string& path, std::string& got, int& status) {
   int fds[2];
   if (::pipe(fds) != 0) throw Error(path + ": could not create a pipe to read the file in a child process: " + strerror(errno));
   const pid_t pid = ::fork();
@@ -84,17 +113,50 @@ std::string read_in_child(const std::string& path, const std::string& library, c
     ::_exit(write_all(fds[1], out.data(), out.size()) ? 0 : 3);
   }
   ::close(fds[1]);
-  std::string got;
+  got.clear();
   char buf[1 << 16];
+  int asleep = 0;
+  long long last_cpu = -1;
+  Outcome outcome = Outcome::kFinished;
   for (;;) {
+    pollfd p{fds[0], POLLIN, 0};
+    const int ready = ::poll(&p, 1, kPollMs);
+    if (ready < 0 && errno == EINTR) continue;
+    if (ready == 0) {
+      const auto [cpu, state] = cpu_and_state(pid);
+      asleep = (state == 'S' && cpu == last_cpu) ? asleep + 1 : 0;
+      last_cpu = cpu;
+      if (asleep < kStalledPolls) continue;
+      ::kill(pid, SIGKILL);
+      outcome = Outcome::kStalled;
+      break;
+    }
     const ssize_t r = ::read(fds[0], buf, sizeof buf);
     if (r < 0 && errno == EINTR) continue;
     if (r <= 0) break;
     got.append(buf, static_cast<size_t>(r));
+    asleep = 0;
   }
   ::close(fds[0]);
-  int status = 0;
   while (::waitpid(pid, &status, 0) < 0 && errno == EINTR) {
+  }
+  return outcome;
+}
+
+}  // namespace
+
+std::string read_in_child(const std::string& path, const std::string& library, const std::function<std::string()>& read) {
+  // tests/fuzz/run.sh --deep: in process, so that the fuzzer sees the reading code's coverage (and
+  // libFuzzer's fork mode survives the libraries' crashes)
+  static const bool in_process = std::getenv("DD_READ_IN_PROCESS") != nullptr;
+  if (in_process) return read();
+  std::string got;
+  int status = 0;
+  for (int attempt = 1;; ++attempt) {
+    if (read_once(read, path, got, status) == Outcome::kFinished) break;
+    if (attempt == kTries)
+      throw Error(path + ": reading it with " + library + " stalled: the child process that read it slept for " +
+                  std::to_string(kStalledPolls * kPollMs / 1000) + " s without progress, " + std::to_string(kTries) + " times");
   }
   const bool clean = WIFEXITED(status) && WEXITSTATUS(status) == 0;
   if (clean && !got.empty() && got[0] == 'O') return got.substr(1);

@@ -22,7 +22,9 @@ namespace dd {
 /// message is rethrown as an Error; when the child dies (a signal, a sanitizer's abort), throws
 /// Error("<path>: the file is corrupt: reading it crashed <library> ..."). The child runs `read` on
 /// one thread (OpenMP's pool is set to one); `read` must not start threads or pools of its own
-/// (at::set_num_threads does: it hangs after a fork).
+/// (at::set_num_threads does: it hangs after a fork). A child that sleeps for 3 s without using any
+/// CPU (deadlocked on a lock another thread held at the fork) is killed and the read started again;
+/// after 3 such tries, Error("<path>: reading it with <library> stalled: ...").
 std::string read_in_child(const std::string& path, const std::string& library, const std::function<std::string()>& read);
 
 /// With DD_READ_IN_PROCESS set in the environment, `read` runs in this process instead (for the

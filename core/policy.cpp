@@ -12,6 +12,7 @@
 #include "core/isolate.h"
 #include "core/runtime.h"
 #include "core/nn/policy_impl.h"
+#include "core/nn/archive_io.h"
 #include "core/nn/bf16_gemm.h"
 #include "core/nn/fast_unet.h"
 
@@ -128,8 +129,14 @@ torch::Generator make_generator(uint64_t seed) { return at::detail::createCPUGen
 DiffusionPolicy::Impl::Impl(const PolicyConfig& c, uint64_t seed)
     : config(c), scheduler(c.scheduler), obs_norm(c.obs_dim), act_norm(c.action_norm_dim()) {
   torch::manual_seed(seed);  // parameter initialisation draws from the global generator
-  model = nn::ConditionalUnet1D(c.action_dim, c.obs_dim, c.unet);
-  ema = nn::ConditionalUnet1D(c.action_dim, c.obs_dim, c.unet);
+  try {
+    model = nn::ConditionalUnet1D(c.action_dim, c.obs_dim, c.unet);
+    ema = nn::ConditionalUnet1D(c.action_dim, c.obs_dim, c.unet);
+  } catch (const c10::Error& e) {  // out of memory: a config's sizes are bounded, not its product
+    const int64_t n = nn::parameter_count(c.action_dim, c.obs_dim, c.unet);
+    throw Error("policy: could not build its network of " + std::to_string(n) + " parameters (unet.down_dims, " +
+                "unet.kernel_size, obs_dim): " + first_line(e.what()));
+  }
   for (auto& p : ema->parameters()) p.set_requires_grad(false);
   copy_model_to_ema();
 }

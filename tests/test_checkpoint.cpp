@@ -4,8 +4,12 @@
 
 #include <filesystem>
 #include <fstream>
+#include <tuple>
+
+#include <nlohmann/json.hpp>
 
 #include "core/chunks.h"
+#include "core/nn/archive_io.h"
 #include "core/nn/policy_impl.h"
 #include "core/policy.h"
 #include "core/synthetic.h"
@@ -117,6 +121,68 @@ TEST_F(Checkpoint, MissingAndForeignFilesAreRejected) {
   const std::string text = (dir_ / "notes.txt").string();
   std::ofstream(text) << "not a checkpoint\n";
   EXPECT_NE(message_of([&] { DiffusionPolicy::from_checkpoint(text); }).find(text), std::string::npos);
+}
+
+// A file in the checkpoint format whose stored config is `config` and whose weights are `weights`'.
+static void write_mixed_checkpoint(const std::string& path, const PolicyConfig& config, const DiffusionPolicy& weights) {
+  torch::serialize::OutputArchive archive, model, ema;
+  archive.write("format", c10::IValue(std::string("diffdagger-policy")));
+  archive.write("version", c10::IValue(int64_t{1}));
+  archive.write("config", c10::IValue(nlohmann::json(config).dump()));
+  write_normalizers(archive, weights.impl().obs_norm, weights.impl().act_norm);
+  weights.impl().model->save(model);
+  weights.impl().ema->save(ema);
+  archive.write("model", model);
+  archive.write("ema", ema);
+  archive.save_to(path);
+}
+
+TEST(CheckpointConfig, ParameterCountMatchesTheBuiltNetwork) {
+  for (const auto& [obs, act, horizon, preset, kernel] :
+       {std::tuple{3, 2, 8, "tiny", 5}, std::tuple{24, 7, 32, "cpu", 5}, std::tuple{4, 2, 16, "medium", 3}, std::tuple{5, 3, 8, "tiny", 1}}) {
+    PolicyConfig c = fakes::tiny_policy(obs, act);
+    c.horizon = horizon;
+    c.unet = unet_preset(preset);
+    c.unet.kernel_size = kernel;
+    for (const std::vector<int>& dims : {c.unet.down_dims, std::vector<int>{c.unet.down_dims.front()}}) {
+      c.unet.down_dims = dims;
+      const DiffusionPolicy p(c, 0, false);
+      int64_t built = 0;
+      for (const auto& t : p.impl().model->parameters()) built += t.numel();
+      EXPECT_EQ(nn::parameter_count(act, obs, c.unet), built) << preset << " with " << dims.size() << " levels";
+    }
+  }
+}
+
+// A fuzzed checkpoint (tests/fuzz) said kernel_size 99 over weights of kernel 3: Module::load took the
+// weights as they were, and sampling read past them. Weights of another shape than the config's
+// network are now an Error naming the field, and a policy loaded into keeps its own weights.
+TEST_F(Checkpoint, WeightsOfAnotherShapeThanTheConfigsAreRejected) {
+  const auto p = trained();
+  PolicyConfig wider = p->config();
+  wider.unet.kernel_size = 3;  // tiny_policy's kernel is 5
+  write_mixed_checkpoint(path_, wider, *p);
+  const std::string m = message_of([&] { DiffusionPolicy::from_checkpoint(path_); });
+  EXPECT_NE(m.find(path_), std::string::npos) << m;
+  EXPECT_NE(m.find("field 'model.down0_res0.block0.conv.weight' is [16, 2, 5] Float where the network its config describes has [16, 2, 3] Float"),
+            std::string::npos)
+      << m;
+
+  DiffusionPolicy into(wider, 3, false);
+  const Vec obs = Vec::LinSpaced(3, -0.5f, 0.5f);
+  const Mat before = into.sample(obs, 4);
+  EXPECT_NE(message_of([&] { into.load(path_); }).find("where the network its config describes"), std::string::npos);
+  EXPECT_EQ(into.sample(obs, 4), before) << "a failed load changed the policy's weights";
+}
+
+TEST_F(Checkpoint, ConfigDescribingMoreWeightsThanTheFileHoldsIsRejected) {
+  const auto p = trained();
+  PolicyConfig huge = p->config();
+  huge.unet.down_dims = {4096, 4096};  // about 0.7 G parameters; the file holds a few hundred kB
+  write_mixed_checkpoint(path_, huge, *p);
+  const std::string m = message_of([&] { DiffusionPolicy::from_checkpoint(path_); });
+  EXPECT_NE(m.find(path_ + ": field 'config' describes a network of"), std::string::npos) << m;
+  EXPECT_NE(m.find("more than the whole file"), std::string::npos) << m;
 }
 
 TEST_F(Checkpoint, FailedSaveLeavesTheOldFileIntact) {

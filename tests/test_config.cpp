@@ -4,6 +4,7 @@
 #include <nlohmann/json.hpp>
 
 #include <filesystem>
+#include <functional>
 #include <fstream>
 
 #include "core/config.h"
@@ -44,6 +45,40 @@ TEST(PolicyConfig, ValidationNamesTheField) {
       EXPECT_NE(std::string(e.what()).find("relative_actions"), std::string::npos) << e.what();
     }
   }
+}
+
+// Values a corrupt checkpoint's config held (tests/fuzz): each was undefined behaviour in validate()
+// itself (a division by zero groups, a shift by 40 levels) or a network of terabytes. Each is now an
+// Error naming its field.
+TEST(PolicyConfig, OutOfRangeSizesAreErrorsNamingTheField) {
+  struct Case {
+    const char* field;
+    std::function<void(PolicyConfig&)> set;
+  };
+  const std::vector<Case> cases{
+      {"unet.n_groups", [](PolicyConfig& c) { c.unet.n_groups = 0; }},
+      {"unet.n_groups", [](PolicyConfig& c) { c.unet.n_groups = -4; }},
+      {"unet.down_dims", [](PolicyConfig& c) { c.unet.down_dims.assign(40, 8); }},
+      {"unet.down_dims", [](PolicyConfig& c) { c.unet.down_dims = {400000, 400000}; }},
+      {"unet.kernel_size", [](PolicyConfig& c) { c.unet.kernel_size = 2000000001; }},
+      {"unet.step_embed_dim", [](PolicyConfig& c) { c.unet.step_embed_dim = 2000000000; }},
+      {"obs_dim", [](PolicyConfig& c) { c.obs_dim = 2000000000; }},
+      {"action_dim", [](PolicyConfig& c) { c.action_dim = 2000000000; }},
+      {"horizon", [](PolicyConfig& c) { c.horizon = 1 << 30; }},
+  };
+  for (const Case& k : cases) {
+    PolicyConfig c;
+    k.set(c);
+    try {
+      c.validate();
+      ADD_FAILURE() << k.field << ": expected an error";
+    } catch (const Error& e) {
+      EXPECT_EQ(std::string(e.what()).rfind(k.field, 0), 0u) << e.what();
+    }
+  }
+  PolicyConfig paper;  // the paper's network stays well inside the bounds
+  paper.unet = unet_preset("paper");
+  EXPECT_NO_THROW(paper.validate());
 }
 
 TEST(PolicyConfig, JsonRoundTrip) {

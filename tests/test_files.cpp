@@ -7,6 +7,7 @@
 #include <cstdio>
 #include <string>
 #include <filesystem>
+#include <fstream>
 #include <vector>
 
 #include <unistd.h>
@@ -143,6 +144,37 @@ TEST(ReadInChild, ALibraryCrashIsAnErrorNamingTheFile) {
     }
   }
   EXPECT_EQ(dd::children_crashed(), before + 2);
+}
+
+// A child that deadlocks at once (tests/fuzz saw one blocked on ASan's allocator lock, held by
+// another thread at the fork) is killed after a few seconds asleep and the read is tried again.
+TEST(ReadInChild, AChildAsleepWithoutProgressIsKilledAndTheReadTriedAgain) {
+  const std::string marker = (std::filesystem::temp_directory_path() / ("dd_stall_" + std::to_string(::getpid()))).string();
+  std::filesystem::remove(marker);
+  const auto sleep_forever = [] {
+    for (;;) ::pause();
+  };
+  // the first child stalls; the second finds the first one's marker and reads
+  EXPECT_EQ(dd::read_in_child("slow.bin", "lib",
+                              [&] {
+                                if (!std::filesystem::exists(marker)) {
+                                  std::ofstream(marker) << "stalled once\n";
+                                  sleep_forever();
+                                }
+                                return std::string("read on the second try");
+                              }),
+            "read on the second try");
+  std::filesystem::remove(marker);
+  // one that stalls every time is an Error naming the file and the library
+  try {
+    dd::read_in_child("stuck.bin", "libstuck", [&]() -> std::string {
+      sleep_forever();
+      return {};
+    });
+    FAIL() << "no error";
+  } catch (const dd::Error& e) {
+    EXPECT_NE(std::string(e.what()).find("stuck.bin: reading it with libstuck stalled"), std::string::npos) << e.what();
+  }
 }
 
 TEST(RunInChildren, ResultsInOrderAndEveryReportDelivered) {

@@ -63,9 +63,43 @@ void check_tensor(const torch::Tensor& t, const std::string& path, const std::st
   }
 }
 
-void check_module(const torch::nn::Module& module, const std::string& path, const std::string& prefix) {
-  for (const auto& p : module.named_parameters()) check_tensor(p.value(), path, prefix + p.key());
-  for (const auto& b : module.named_buffers()) check_tensor(b.value(), path, prefix + b.key());
+namespace {
+std::string shape_string(const torch::Tensor& t) {
+  std::string s;
+  for (const int64_t d : t.sizes()) s += (s.empty() ? "" : ", ") + std::to_string(d);
+  return "[" + s + "] " + std::string(c10::toString(t.scalar_type()));
+}
+}  // namespace
+
+void load_modules_checked(const std::vector<ModulePart>& parts, const std::string& path) {
+  // the modules' tensors (handles: Module::load replaces their data in place, whatever its shape),
+  // and copies of what they held, to check the shapes against and to put back on failure
+  struct Slot {
+    std::string name;
+    torch::Tensor tensor, before;
+  };
+  std::vector<Slot> slots;
+  for (const ModulePart& part : parts) {
+    for (const auto& p : part.module.named_parameters()) slots.push_back({part.prefix + p.key(), p.value(), p.value().detach().clone()});
+    for (const auto& b : part.module.named_buffers()) slots.push_back({part.prefix + b.key(), b.value(), b.value().detach().clone()});
+  }
+  try {
+    for (const ModulePart& part : parts) part.module.load(part.archive);
+    for (Slot& s : slots) {
+      check_tensor(s.tensor, path, s.name);
+      if (s.tensor.sizes() != s.before.sizes() || s.tensor.scalar_type() != s.before.scalar_type())
+        throw Error(path + ": field '" + s.name + "' is " + shape_string(s.tensor) + " where the network its config describes has " +
+                    shape_string(s.before));
+      if (!s.tensor.is_contiguous()) {  // the fast paths read weights as dense arrays
+        torch::NoGradGuard no_grad;
+        s.tensor.set_(s.tensor.contiguous());
+      }
+    }
+  } catch (...) {
+    torch::NoGradGuard no_grad;
+    for (Slot& s : slots) s.tensor.set_(s.before);
+    throw;
+  }
 }
 
 torch::Tensor vec_tensor(const Vec& v) {

@@ -3,6 +3,7 @@
 #pragma once
 
 #include <string>
+#include <vector>
 
 #include <torch/torch.h>
 
@@ -23,8 +24,18 @@ void load_archive_checked(torch::serialize::InputArchive& archive, const std::st
 /// (a corrupt archive; tests/fuzz found one that threw from inside libtorch at the first use) or,
 /// for floating-point tensors, holds NaN or infinite values.
 void check_tensor(const torch::Tensor& t, const std::string& path, const std::string& name);
-/// check_tensor() on every parameter and buffer of `module`, named prefix + its name.
-void check_module(const torch::nn::Module& module, const std::string& path, const std::string& prefix);
+/// One network of a file: `module` is loaded from `archive`, its tensors named prefix + their name.
+struct ModulePart {
+  torch::nn::Module& module;
+  torch::serialize::InputArchive& archive;
+  std::string prefix;
+};
+/// Loads every part, all or nothing. Module::load takes a stored tensor whatever its shape, so each
+/// parameter and buffer must then keep the shape and type the module was built with (else Error
+/// "path: field 'model.x.weight' is [8, 2, 3] Float where the network its config describes has
+/// [8, 2, 99] Float"; the fast paths would read past it) and pass check_tensor(). A non-contiguous
+/// tensor is made contiguous. On any failure, c10::Error included, every part keeps what it held.
+void load_modules_checked(const std::vector<ModulePart>& parts, const std::string& path);
 
 /// A vector as a 1-D float tensor (a copy) and back: normalisers in archives.
 torch::Tensor vec_tensor(const Vec& v);

@@ -95,6 +95,29 @@ ConditionalUnet1DImpl::ConditionalUnet1DImpl(int action_dim, int global_cond_dim
   final_conv_ = register_module("final_conv", torch::nn::Conv1d(torch::nn::Conv1dOptions(start, action_dim, 1)));
 }
 
+int64_t parameter_count(int action_dim, int global_cond_dim, const UnetConfig& config) {
+  // the constructor above, layer by layer
+  const int64_t k = config.kernel_size, e = config.step_embed_dim, cond = e + global_cond_dim;
+  const auto conv = [](int64_t in, int64_t out, int64_t kernel) { return in * out * kernel + out; };
+  const auto linear = [](int64_t in, int64_t out) { return in * out + out; };
+  const auto block = [&](int64_t in, int64_t out) { return conv(in, out, k) + 2 * out; };  // + GroupNorm's affine
+  const auto res = [&](int64_t in, int64_t out) {
+    return block(in, out) + block(out, out) + linear(cond, 2 * out) + (in != out ? conv(in, out, 1) : 0);
+  };
+  std::vector<int64_t> dims{action_dim};
+  dims.insert(dims.end(), config.down_dims.begin(), config.down_dims.end());
+  const size_t levels = config.down_dims.size();
+  int64_t n = linear(e, 4 * e) + linear(4 * e, e);
+  for (size_t i = 0; i < levels; ++i) {
+    n += res(dims[i], dims[i + 1]) + res(dims[i + 1], dims[i + 1]);
+    if (i + 1 < levels) n += conv(dims[i + 1], dims[i + 1], 3);
+  }
+  n += 2 * res(dims.back(), dims.back());
+  for (size_t i = levels - 1; i >= 1; --i) n += res(2 * dims[i + 1], dims[i]) + res(dims[i], dims[i]) + conv(dims[i], dims[i], 4);
+  const int64_t start = config.down_dims.front();
+  return n + block(start, start) + conv(start, action_dim, 1);
+}
+
 ResBlock ConditionalUnet1DImpl::add_res(const std::string& name, int in, int out) {
   ResBlock r = register_module(name, ResBlock(in, out, cond_dim_, config_.kernel_size, config_.n_groups));
   all_res_.push_back(r);

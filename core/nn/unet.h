@@ -79,6 +79,11 @@ TORCH_MODULE(ConditionalUnet1D);
 /// stride 2, padding 1: the U-Net's upsampling), else its own forward.
 torch::Tensor upsample(torch::nn::ConvTranspose1dImpl& up, const torch::Tensor& x);
 
+/// How many parameters ConditionalUnet1D(action_dim, global_cond_dim, config) has, counted without
+/// building it (a corrupt checkpoint's config may describe terabytes). Within PolicyConfig's bounds
+/// it fits int64; tests/test_checkpoint.cpp checks it against built networks.
+int64_t parameter_count(int action_dim, int global_cond_dim, const UnetConfig& config);
+
 /// Sinusoidal embedding of diffusion timesteps: (B) -> (B, dim).
 torch::Tensor sinusoidal_embedding(const torch::Tensor& t, int dim);
 
