@@ -30,6 +30,7 @@ struct DaggerRunOptions {
   std::string out;               // folder: dataset.hdf5, checkpoints/, queries.jsonl, config.json
   bool quiet = false;            // no progress bars
   std::string label;             // starts the line per update (and on resuming); with it, quiet keeps those lines
+  double lines_every_s = 300;    // quiet and labelled: a progress line at most this often, in training and between updates
   int stop_after_update = 0;     // stop after this update's resume point, as a stopped run would (0: run to the end)
 };
 

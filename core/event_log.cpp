@@ -38,6 +38,10 @@ void EventLog::operator()(const SessionEvent& e) {
     j["threshold"] = e.report.threshold;
     j["pairs"] = e.report.pairs;
     if (e.report.train_reused) j["train_reused"] = true;
+    if (e.report.threshold_pairs > 0) {
+      j["threshold_pairs"] = e.report.threshold_pairs;
+      j["threshold_refined"] = e.report.threshold_refined;
+    }
   }
   j["expert_demos"] = e.expert_demos;
   j["interventions"] = e.interventions;

@@ -130,7 +130,7 @@ class DiffMethod : public Method {
     const ChunkDataset cal = data.subset(config_.calibration_pairs, seed_ + ++updates_);
     const int passes = 1 + static_cast<int>(compare_.size());
     int pass = 0;
-    auto quantile = [&] {
+    auto quantile = [&](bool main_rule) {
       ProgressFn part;
       if (progress)
         part = [&, base = pass++](int done, int total, double value) {
@@ -140,14 +140,18 @@ class DiffMethod : public Method {
                                                    config_.screen_threshold, part);
       spdlog::debug("diff: threshold {:.5f} over {} pairs, {} of them at {} rows (screened at {})", q.threshold, q.pairs, q.refined,
                     config_.loss_samples, q.screen_samples);
+      if (main_rule) {
+        r.threshold_pairs = q.pairs;
+        r.threshold_refined = q.refined;
+      }
       return q.threshold;
     };
-    threshold_ = quantile();
+    threshold_ = quantile(true);
     r.threshold_s = since(t);  // the compared rules' thresholds are not the method's cost
     r.threshold = threshold_;
     for (size_t i = 0; i < compare_.size(); ++i) {
       ScoredBy rule(*this, compare_[i]);
-      compare_thresholds_[i] = quantile();
+      compare_thresholds_[i] = quantile(false);
     }
   }
 

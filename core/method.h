@@ -84,6 +84,10 @@ struct UpdateReport {
   float threshold = 0;
   int pairs = 0;             // training pairs
   double final_loss = 0;     // mean training loss over the last steps
+  // Diff-DAgger's screened threshold (0 for the other methods): the pairs it was the quantile of, and
+  // how many of them were scored with all loss_samples rows. Its wall-clock grows with the second.
+  int threshold_pairs = 0;
+  int threshold_refined = 0;
 };
 
 class Method {

@@ -346,7 +346,8 @@ void DaggerSession::save_state(const std::string& dir) const {
   nlohmann::json reports = nlohmann::json::array();
   for (const UpdateReport& r : reports_)
     reports.push_back({{"train_s", r.train_s}, {"threshold_s", r.threshold_s}, {"threshold", r.threshold}, {"pairs", r.pairs},
-                       {"final_loss", r.final_loss}, {"train_reused", r.train_reused}});
+                       {"final_loss", r.final_loss}, {"train_reused", r.train_reused},
+                       {"threshold_pairs", r.threshold_pairs}, {"threshold_refined", r.threshold_refined}});
   const nlohmann::json j{{"episode", episode_}, {"expert_demos", expert_demos_}, {"interventions", interventions_},
                          {"updates", updates_}, {"demos_at_last_update", demos_at_last_update_},
                          {"expert_failures", expert_failures_}, {"finishing", finishing_}, {"done", done_},
@@ -387,6 +388,8 @@ void DaggerSession::load_state(const std::string& dir) {
       num(r, "pairs", u.pairs);
       num(r, "final_loss", u.final_loss);
       if (r.contains("train_reused")) num(r, "train_reused", u.train_reused);  // absent in states written before it
+      if (r.contains("threshold_pairs")) num(r, "threshold_pairs", u.threshold_pairs);  // likewise
+      if (r.contains("threshold_refined")) num(r, "threshold_refined", u.threshold_refined);
       reports.push_back(u);
     }
     num(j, "episode", c.episode);

@@ -10,6 +10,7 @@
 #include <set>
 #include <sstream>
 
+#include <fmt/format.h>
 #include <nlohmann/json.hpp>
 
 #include "app/experiments.h"
@@ -130,7 +131,18 @@ TEST(DaggerNav2d, AStoppedRunContinuesFromItsLastUpdate) {
     o.quiet = true;
     o.out = root + "/" + method + "_straight";
     std::unique_ptr<Method> straight_method, resumed_method;
-    const DaggerRunResult straight = run_dagger(c, o, &straight_method);
+    // as eval's cells run it (quiet, labelled), with its progress lines as often as they come
+    DaggerRunOptions labelled = o;
+    labelled.label = "[cell]";
+    labelled.lines_every_s = 0;
+    testing::internal::CaptureStderr();
+    const DaggerRunResult straight = run_dagger(c, labelled, &straight_method);
+    const std::string said = testing::internal::GetCapturedStderr();
+    EXPECT_NE(said.find("[cell] since update 1: "), std::string::npos) << said.substr(0, 2000);
+    EXPECT_NE(said.find("[cell] update 2: "), std::string::npos) << said.substr(0, 2000);
+    const std::string rows_note = fmt::format(" pairs at {} rows)", c.method.loss_samples);
+    EXPECT_EQ(said.find(rows_note) != std::string::npos, std::string(method) == "diff")
+        << "Diff-DAgger's update lines say how many pairs its screened threshold scored in full";
     std::printf("%s: %d episodes, %d updates, %d queries, %d time-outs\n", method, straight.episodes, straight.updates,
                 straight.queries, straight.timeouts);
     ASSERT_GE(straight.updates, 3) << "the test stops the run after its second update";
@@ -157,6 +169,20 @@ TEST(DaggerNav2d, AStoppedRunContinuesFromItsLastUpdate) {
     EXPECT_EQ(resumed.iteration_train_s.size(), straight.iteration_train_s.size());
     EXPECT_EQ(resumed.iteration_inference_s.size(), straight.iteration_inference_s.size());
     EXPECT_EQ(events(s.out + "/queries.jsonl"), events(o.out + "/queries.jsonl"));
+    // Diff-DAgger's threshold scored in full at least every pair at or above its quantile
+    int updates_logged = 0;
+    for (const nlohmann::json& e : events(o.out + "/queries.jsonl")) {
+      if (e.at("event") != "update_finished") continue;
+      ++updates_logged;
+      if (std::string(method) != "diff") {
+        EXPECT_FALSE(e.contains("threshold_refined"));
+        continue;
+      }
+      const int pairs = e.at("threshold_pairs").get<int>(), refined = e.at("threshold_refined").get<int>();
+      EXPECT_LE(refined, pairs);
+      EXPECT_GE(refined, pairs - static_cast<int>(std::floor(pairs * c.method.alpha))) << e.dump();
+    }
+    EXPECT_EQ(updates_logged, straight.updates);
     const auto a = read_dataset(straight.dataset), b = read_dataset(resumed.dataset);
     ASSERT_EQ(a.size(), b.size());
     for (size_t i = 0; i < a.size(); ++i) {

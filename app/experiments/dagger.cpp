@@ -145,6 +145,37 @@ DaggerRunResult run_dagger(const ExperimentConfig& config, const DaggerRunOption
     }
   });
 
+  // eval's cells (quiet, labelled): between updates, a line every 5 minutes (lines_every_s) on the rollouts so far, so
+  // that the hour a good policy can roll out before its next N_d interventions shows in the cell's log
+  struct Since {
+    int episodes = 0, robot_successes = 0, demos_at_update = 0;
+    uint64_t decisions = 0;
+  } since;
+  since.demos_at_update = session.expert_demos();
+  auto last_line = std::chrono::steady_clock::now();
+  if (o.quiet && !o.label.empty())
+    session.add_observer([&](const SessionEvent& e) {
+      if (e.kind == EventKind::kDecision) ++since.decisions;
+      if (e.kind == EventKind::kEpisodeEnd) {
+        ++since.episodes;
+        if (e.control == Control::kRobot && e.success) ++since.robot_successes;
+      }
+      if (e.kind == EventKind::kUpdateFinished) {
+        since = {0, 0, e.expert_demos, 0};
+        last_line = std::chrono::steady_clock::now();
+      }
+      if (e.kind != EventKind::kEpisodeEnd) return;
+      const auto now = std::chrono::steady_clock::now();
+      if (std::chrono::duration<double>(now - last_line).count() < o.lines_every_s) return;
+      last_line = now;
+      const int needed = session.updates() == 0 ? config.dagger.initial_demos : config.dagger.demos_per_update;
+      fmt::print(stderr, "{}since update {}: {} episodes ({} the robot's own successes), {} of {} demonstrations for update {}, "
+                 "{} decisions at {:.0f} ms\n",
+                 prefix, session.updates(), since.episodes, since.robot_successes, e.expert_demos - since.demos_at_update, needed,
+                 session.updates() + 1, since.decisions,
+                 since.decisions == 0 ? 0.0 : 1e3 * session.inference_s_since_update() / static_cast<double>(since.decisions));
+    });
+
   while (!session.done()) {
     if (session.update_pending()) {
       const double inference = session.inference_s_since_update();
@@ -152,7 +183,7 @@ DaggerRunResult run_dagger(const ExperimentConfig& config, const DaggerRunOption
         // eval's cells (quiet, labelled): a plain line every 5 minutes, so that an update of an hour
         // or more shows its progress in the cell's log
         ProgressBar bar(fmt::format("{}update {} ({} demos)", prefix, session.updates() + 1, session.expert_demos()), "loss");
-        if (o.quiet && !o.label.empty()) bar.lines_every(300);
+        if (o.quiet && !o.label.empty()) bar.lines_every(o.lines_every_s);
         session.run_update(o.quiet && o.label.empty() ? ProgressFn{} : bar.fn());
       }
       const UpdateReport& r = session.reports().back();
@@ -166,11 +197,14 @@ DaggerRunResult run_dagger(const ExperimentConfig& config, const DaggerRunOption
       // long run's only sign of life), nothing on a quiet unlabelled one.
       if (!o.quiet || !o.label.empty())
         fmt::print(stderr, "{}update {}: {}/{} demonstrations ({} interventions) in {} episodes, {} pairs; train {:.1f} s{}, "
-                   "threshold {:.4g} set in {:.1f} s\n",
+                   "threshold {:.4g} set in {:.1f} s{}\n",
                    prefix, session.updates(), session.expert_demos(), config.dagger.final_demos,
                    session.interventions(), session.episode(), r.pairs, r.train_s,
                    r.train_reused ? " (when trained: the same members on the same data, loaded from the cache)" : "", r.threshold,
-                   r.threshold_s);
+                   r.threshold_s,
+                   r.threshold_pairs > 0 ? fmt::format(" ({} of {} pairs at {} rows)", r.threshold_refined, r.threshold_pairs,
+                                                       config.method.loss_samples)
+                                         : "");
       if (!session.done()) {
         save_resume_point();
         if (session.updates() == o.stop_after_update) {
