@@ -64,7 +64,8 @@ struct PlotOptions {
   int seed = 0;      // which seed's runs (an eval folder)
   int episode = 0;   // figure 5's episode (0: the first the robot acts in, N_i + 1)
 };
-/// Writes DIR/figure4_wallclock.png with wallclock.csv, and DIR/figure5_episode.png with
+/// Writes DIR/figure4_wallclock.png with wallclock.csv, DIR/figure_iterations.png with
+/// iterations.csv (every update's cost and the rollouts up to the next), and DIR/figure5_episode.png with
 /// episode.csv; returns the files written. Throws Error naming the folder or log that is missing or malformed.
 std::vector<std::string> plot_runs(const PlotOptions& options);
 

@@ -61,25 +61,68 @@ ui::Rgb control_color(const std::string& control) {
 
 double number(const json& j, const char* key) { return j.contains(key) && j[key].is_number() ? j[key].get<double>() : 0.0; }
 
-// Per iteration (one policy update and the robot's decisions before the next): wall-clock seconds.
+// One DAgger iteration: a policy update and the rollouts after it, up to the next update (or the end
+// of the run). `complete`: the next update (or the run's end) has come, so the rollouts are all here.
+struct Iteration {
+  int update = 0;
+  int demonstrations = 0, pairs = 0;
+  double train_s = 0, threshold_s = 0;
+  int threshold_refined = -1;  // pairs scored with all rows (Diff-DAgger's screened threshold; -1: not logged)
+  int episodes = 0, robot_successes = 0, queries = 0, timeouts = 0;
+  int64_t decisions = 0;
+  double inference_s = 0;
+  bool complete = false;
+};
+
+std::vector<Iteration> iteration_rows(const Run& r) {
+  std::vector<Iteration> rows;
+  for (const json& e : r.events) {
+    const std::string kind = e["event"];
+    if (kind == "update_finished") {
+      if (!rows.empty()) rows.back().complete = true;
+      Iteration it;
+      it.update = static_cast<int>(rows.size()) + 1;
+      it.demonstrations = static_cast<int>(number(e, "expert_demos"));
+      it.pairs = static_cast<int>(number(e, "pairs"));
+      it.train_s = number(e, "train_s");
+      it.threshold_s = number(e, "threshold_s");
+      if (e.contains("threshold_refined")) it.threshold_refined = static_cast<int>(number(e, "threshold_refined"));
+      rows.push_back(it);
+      continue;
+    }
+    if (rows.empty()) continue;  // the initial demonstrations, before any policy
+    Iteration& it = rows.back();
+    if (kind == "decision") {
+      ++it.decisions;
+      it.inference_s += number(e, "inference_ms") / 1e3;
+    } else if (kind == "episode_end") {
+      ++it.episodes;
+      it.robot_successes += e.value("control", "") == "robot" && e.value("success", false);
+    } else if (kind == "query") {
+      ++it.queries;
+    } else if (kind == "timeout") {
+      ++it.timeouts;
+    } else if (kind == "done") {
+      it.complete = true;
+    }
+  }
+  return rows;
+}
+
+// Figure 4's samples, wall-clock seconds per iteration: every update's training and threshold, and the
+// robot's decisions of every iteration but the last (a finished run's last update has none after it;
+// a running one's are not all in yet).
 struct Iterations {
   std::vector<double> train, threshold, inference;
 };
 
 Iterations iterations(const Run& r) {
   Iterations it;
-  double inference = 0;
-  int updates = 0;
-  for (const json& e : r.events) {
-    const std::string kind = e["event"];
-    if (kind == "decision") inference += number(e, "inference_ms") / 1e3;
-    if (kind == "update_finished") {
-      it.train.push_back(number(e, "train_s"));
-      it.threshold.push_back(number(e, "threshold_s"));
-      // the decisions between two updates belong to the iteration the earlier one began
-      if (updates++ > 0) it.inference.push_back(inference);
-      inference = 0;
-    }
+  const std::vector<Iteration> rows = iteration_rows(r);
+  for (size_t i = 0; i < rows.size(); ++i) {
+    it.train.push_back(rows[i].train_s);
+    it.threshold.push_back(rows[i].threshold_s);
+    if (i + 1 < rows.size()) it.inference.push_back(rows[i].inference_s);
   }
   return it;
 }
@@ -160,6 +203,80 @@ std::vector<std::string> plot_runs(const PlotOptions& o) {
                                            o.seed, not_drawn)));
       written.push_back(o.dir + "/wallclock.csv");
       written.push_back(o.dir + "/figure4_wallclock.png");
+    }
+  }
+
+  // Per iteration: what each update cost and how many rollouts it took to reach the next one.
+  {
+    std::string csv =
+        "method,update,demonstrations,pairs,train_s,threshold_s,threshold_refined,episodes,robot_successes,queries,timeouts,"
+        "decisions,inference_s,ms_per_decision,complete\n";
+    constexpr int kPanels = 6;
+    const char* titles[kPanels] = {"training", "threshold setting", "robot's decisions until the next update",
+                                   "episodes until the next update", "the rule's queries until the next update",
+                                   "time-outs until the next update"};
+    const char* y_labels[kPanels] = {"seconds", "seconds", "seconds", "episodes", "queries", "time-outs"};
+    ui::LinePanel panels[kPanels];
+    for (int k = 0; k < kPanels; ++k) {
+      panels[k].title = titles[k];
+      panels[k].x_label = "update";
+      panels[k].y_label = y_labels[k];
+      panels[k].y_min = 0;
+      panels[k].width = 420;
+      panels[k].height = 360;
+    }
+    bool partial = false;
+    for (const Run& r : runs) {
+      const std::vector<Iteration> rows = iteration_rows(r);
+      if (rows.empty()) continue;
+      const bool draws = asks(r);  // BC trains once: a single point, no iterations to draw
+      ui::LineSeries series[kPanels];
+      for (ui::LineSeries& s : series) {
+        s.name = method_title(r.method);
+        s.color = method_color(r.method);
+      }
+      for (const Iteration& it : rows) {
+        csv += fmt::format("{},{},{},{},{:.3f},{:.3f},{},{},{},{},{},{},{:.3f},{},{}\n", r.method, it.update, it.demonstrations, it.pairs,
+                           it.train_s, it.threshold_s, it.threshold_refined >= 0 ? std::to_string(it.threshold_refined) : "",
+                           it.episodes, it.robot_successes, it.queries, it.timeouts, it.decisions, it.inference_s,
+                           it.decisions > 0 ? fmt::format("{:.1f}", 1e3 * it.inference_s / static_cast<double>(it.decisions)) : "",
+                           it.complete ? 1 : 0);
+        const double x = it.update;
+        series[0].x.push_back(x);
+        series[0].y.push_back(it.train_s);
+        series[1].x.push_back(x);
+        series[1].y.push_back(it.threshold_s);
+        // a finished run's last update has no rollouts after it, and a running one's are not all in
+        if (!it.complete && draws) partial = true;
+        if (!it.complete || (&it == &rows.back())) continue;
+        series[2].x.push_back(x);
+        series[2].y.push_back(it.inference_s);
+        const double counts[3] = {static_cast<double>(it.episodes), static_cast<double>(it.queries), static_cast<double>(it.timeouts)};
+        for (int k = 3; k < kPanels; ++k) {
+          series[k].x.push_back(x);
+          series[k].y.push_back(counts[k - 3]);
+        }
+      }
+      if (!draws) continue;
+      for (int k = 0; k < kPanels; ++k)
+        if (!series[k].x.empty()) panels[k].series.push_back(std::move(series[k]));
+    }
+    if (!panels[0].series.empty()) {
+      double last_update = 1;
+      for (const ui::LineSeries& s : panels[0].series) last_update = std::max(last_update, s.x.back());
+      for (ui::LinePanel& panel : panels) {  // one update axis for all six
+        panel.x_min = 0;
+        panel.x_max = last_update + 1;
+      }
+      write_text(o.dir + "/iterations.csv", csv);
+      ui::write_png(o.dir + "/figure_iterations.png",
+                    ui::vstack({ui::hstack({ui::draw_lines(panels[0]), ui::draw_lines(panels[1]), ui::draw_lines(panels[2])}),
+                                ui::hstack({ui::draw_lines(panels[3]), ui::draw_lines(panels[4]), ui::draw_lines(panels[5])},
+                                           fmt::format("per DAgger iteration, seed {}: each update's cost, and the rollouts it took to reach the next "
+                                           "(wall-clock){}",
+                                           o.seed, partial ? "; a run still going: its last iteration's rollouts are left out" : ""))}));
+      written.push_back(o.dir + "/iterations.csv");
+      written.push_back(o.dir + "/figure_iterations.png");
     }
   }
 

@@ -391,7 +391,7 @@ TEST(DaggerNav2d, QuickEvaluationWritesEveryFile) {
   // `plot`: figures 4 and 5 from the runs' event logs
   PlotOptions p;
   p.dir = e.out;
-  EXPECT_EQ(plot_runs(p).size(), 4u);
+  EXPECT_EQ(plot_runs(p).size(), 6u);
   std::ifstream wallclock(e.out + "/wallclock.csv");
   std::getline(wallclock, header);
   std::set<std::string> methods;
@@ -449,6 +449,87 @@ TEST(DaggerNav2d, QuickEvaluationWritesEveryFile) {
     }
   }
   fs::remove_all(e.out);
+}
+
+// `plot`'s per-iteration table: each update's own cost, then the rollouts that followed it, up to the
+// next update. A lone dagger folder's log, written by hand: two initial demonstrations (before any
+// policy: in no iteration), update 1, two episodes (the robot alone succeeds in one; the gate asks in
+// the other), update 2, one episode the robot runs into the time limit, and no third update yet.
+TEST(DaggerNav2d, PlotTablesEveryIterationFromTheLog) {
+  const std::string dir = temp_dir("plot_iterations");
+  fs::create_directories(dir);
+  const std::string log = R"({"event":"episode_start","episode":1,"step":0,"control":"expert_demo"}
+{"event":"episode_end","episode":1,"step":30,"control":"expert_demo","success":true}
+{"event":"episode_end","episode":2,"step":25,"control":"expert_demo","success":true}
+{"event":"update_finished","episode":2,"step":0,"expert_demos":2,"pairs":40,"train_s":1.5,"threshold_s":0.5,"threshold_refined":3,"threshold":1.0}
+{"event":"episode_start","episode":3,"step":0,"control":"robot"}
+{"event":"decision","episode":3,"step":0,"score":0.5,"threshold":1.0,"inference_ms":100}
+{"event":"decision","episode":3,"step":8,"score":0.5,"threshold":1.0,"inference_ms":200}
+{"event":"episode_end","episode":3,"step":16,"control":"robot","success":true}
+{"event":"episode_start","episode":4,"step":0,"control":"robot"}
+{"event":"decision","episode":4,"step":0,"score":2.0,"threshold":1.0,"inference_ms":300}
+{"event":"query","episode":4,"step":0}
+{"event":"takeover","episode":4,"step":0,"control":"expert_query"}
+{"event":"episode_end","episode":4,"step":20,"control":"expert_query","success":true}
+{"event":"update_finished","episode":4,"step":0,"expert_demos":3,"pairs":60,"train_s":2.0,"threshold_s":0.25,"threshold":1.0}
+{"event":"episode_start","episode":5,"step":0,"control":"robot"}
+{"event":"decision","episode":5,"step":0,"score":0.5,"threshold":1.0,"inference_ms":50}
+{"event":"timeout","episode":5,"step":40,"control":"robot"}
+{"event":"takeover","episode":5,"step":40,"control":"expert_timeout"}
+{"event":"episode_end","episode":5,"step":60,"control":"expert_timeout","success":true}
+)";
+  write_text(dir + "/queries.jsonl", log);
+  PlotOptions p;
+  p.dir = dir;
+  const std::vector<std::string> written = plot_runs(p);
+  EXPECT_NE(std::find(written.begin(), written.end(), dir + "/iterations.csv"), written.end());
+  EXPECT_NE(std::find(written.begin(), written.end(), dir + "/figure_iterations.png"), written.end());
+  auto rows = read_csv(dir + "/iterations.csv");
+  ASSERT_EQ(rows.size(), 2u);
+  auto& a = rows[0];
+  EXPECT_EQ(a["update"], "1");
+  EXPECT_EQ(a["demonstrations"], "2");
+  EXPECT_EQ(a["pairs"], "40");
+  EXPECT_DOUBLE_EQ(std::stod(a["train_s"]), 1.5);
+  EXPECT_DOUBLE_EQ(std::stod(a["threshold_s"]), 0.5);
+  EXPECT_EQ(a["threshold_refined"], "3");
+  EXPECT_EQ(a["episodes"], "2");
+  EXPECT_EQ(a["robot_successes"], "1") << "episode 4 succeeded, but by the expert";
+  EXPECT_EQ(a["queries"], "1");
+  EXPECT_EQ(a["timeouts"], "0");
+  EXPECT_EQ(a["decisions"], "3");
+  EXPECT_DOUBLE_EQ(std::stod(a["inference_s"]), 0.6);
+  EXPECT_DOUBLE_EQ(std::stod(a["ms_per_decision"]), 200.0);
+  EXPECT_EQ(a["complete"], "1");
+  auto& b = rows[1];
+  EXPECT_EQ(b["update"], "2");
+  EXPECT_EQ(b["threshold_refined"], "") << "not logged: not a zero";
+  EXPECT_EQ(b["episodes"], "1");
+  EXPECT_EQ(b["robot_successes"], "0");
+  EXPECT_EQ(b["timeouts"], "1");
+  EXPECT_EQ(b["complete"], "0") << "no third update yet: its rollouts may not all be in";
+  // figure 4 averages the complete iterations' decisions only: update 1's 0.6 s, not update 2's 0.05
+  {
+    auto w = read_csv(dir + "/wallclock.csv");
+    ASSERT_EQ(w.size(), 1u);
+    EXPECT_DOUBLE_EQ(std::stod(w[0]["inference_s"]), 0.6);
+    EXPECT_DOUBLE_EQ(std::stod(w[0]["train_s"]), 1.75);
+  }
+  // the last update and the run's end: every iteration complete, the last without rollouts
+  write_text(dir + "/queries.jsonl", log + R"({"event":"update_finished","episode":5,"step":0,"expert_demos":4,"pairs":80,"train_s":2.5,"threshold_s":0.5,"threshold":1.0}
+{"event":"done","episode":5,"step":0}
+)");
+  plot_runs(p);
+  rows = read_csv(dir + "/iterations.csv");
+  ASSERT_EQ(rows.size(), 3u);
+  EXPECT_EQ(rows[1]["complete"], "1");
+  EXPECT_EQ(rows[2]["complete"], "1");
+  EXPECT_EQ(rows[2]["decisions"], "0");
+  EXPECT_EQ(rows[2]["ms_per_decision"], "");
+  const ui::Image fig = ui::read_png(dir + "/figure_iterations.png");
+  EXPECT_GT(fig.width, 3 * 400);
+  EXPECT_GT(fig.height, 2 * 300) << "two rows of panels";
+  fs::remove_all(dir);
 }
 
 // Figure 5 colours the expert's last span apart when the expert gave up (plugging: a toppled
