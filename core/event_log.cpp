@@ -26,6 +26,7 @@ void EventLog::operator()(const SessionEvent& e) {
     j["run"] = e.run;
     j["inference_ms"] = e.inference_s * 1e3;
     if (e.risk_q >= 0) j["risk_q"] = e.risk_q;
+    if (e.score_rows > 0) j["score_rows"] = e.score_rows;
     if (e.reason == QueryReason::kRisk) j["reason"] = "risk";
   }
   if (e.kind == EventKind::kEpisodeEnd) {

@@ -79,10 +79,14 @@ class DiffMethod : public Method {
   }
 
   MethodDecision decide(const Vec& obs, uint64_t seed) override {
-    const Decision d = policy_.decide(obs, seed, config_.loss_samples, shared_spaces_);
+    // Screened when the verdict is all that counts: compared rules score the very rows of the method's
+    // own score, so they need all of them.
+    const Decision d = config_.screen_gate && compare_.empty() ? policy_.decide_screened(obs, seed, config_.loss_samples, threshold_)
+                                                               : policy_.decide(obs, seed, config_.loss_samples, shared_spaces_);
     MethodDecision m;
     m.chunk = d.chunk;
     m.score = d.loss;
+    m.score_rows = d.rows;
     m.threshold = threshold_;
     m.violation = violates(d.loss, threshold_);
     m.reason = m.violation ? QueryReason::kScore : QueryReason::kNone;

@@ -35,6 +35,7 @@ struct MethodConfig {
   int loss_samples = 512;        // N_b (diff)
   int calibration_pairs = 0;     // threshold over at most this many training pairs (0: all, the paper's rule)
   bool screen_threshold = true;  // diff: screen the pairs with 1/8 of the rows first (the same quantile, DiffusionPolicy::loss_quantile)
+  bool screen_gate = true;       // diff: score each decision's chunk with 1/8 of the rows first, more only near the threshold (the same verdict, DiffusionPolicy::decide_screened)
   bool score_raw_weights = false;  // diff: score the loss with the raw training weights instead of the EMA
   int score_timesteps = 0;  // diff: the loss draws t from [0, this) only; 0: every timestep (the paper's)
   std::string score_space = "target";  // diff: the space the loss is scored in: target (the paper's) | epsilon | sample | v (DiffusionPolicy)
@@ -72,6 +73,7 @@ struct MethodDecision {
   bool violation = false;    // the query rule's verdict for this decision (core/gate.h, violates)
   QueryReason reason = QueryReason::kNone;
   float risk_q = -1;         // thrifty: min Q(o, a); -1 when not computed
+  int score_rows = 0;        // diff: rows of noise the score is the mean of (fewer than N_b where screened); 0: not a loss
   std::vector<float> compare_scores;        // diff: the score of each MethodConfig::compare_scores rule
   std::vector<uint8_t> compare_violations;  // and its verdict
 };

@@ -451,16 +451,22 @@ std::vector<float> DiffusionPolicy::expected_losses(const ChunkDataset& data, ui
   });
 }
 
+// Rows per pair of a screening pass (loss_quantile, decide_screened): an eighth of n_samples, whole
+// strata of T timesteps, at least two rows per timestep (for the within-stratum variance); 0 where
+// that is more than a quarter of n_samples (screening would not pay).
+static int screening_rows(int n_samples, int T) {
+  const int m = std::max((n_samples / 8 + T - 1) / T, 2) * T;
+  return 4 * m > n_samples ? 0 : m;
+}
+
 LossQuantile DiffusionPolicy::loss_quantile(const ChunkDataset& data, double alpha, uint64_t seed, int n_samples,
                                             bool screen, const ProgressFn& progress) const {
   if (data.size() == 0) throw Error("policy: no training pairs to set a threshold over");
   const int T = impl_->scored_timesteps();
-  // Screening rows per pair: an eighth of n_samples, whole strata, at least two rows per timestep
-  // (for the within-stratum variance); worth it only when that is at most a quarter of n_samples.
-  const int m = std::max((n_samples / 8 + T - 1) / T, 2) * T;
+  const int m = screening_rows(n_samples, T);
   LossQuantile q;
   q.pairs = data.size();
-  if (!screen || 4 * m > n_samples) {
+  if (!screen || m == 0) {
     q.threshold = quantile(expected_losses(data, seed, n_samples, progress), alpha);
     q.refined = q.pairs;
     return q;
@@ -525,6 +531,32 @@ LossQuantile DiffusionPolicy::loss_quantile(const ChunkDataset& data, double alp
 
 Decision DiffusionPolicy::decide(const Vec& obs, uint64_t seed, int n_samples) const { return decide(obs, seed, n_samples, {}); }
 
+Decision DiffusionPolicy::decide_screened(const Vec& obs, uint64_t seed, int n_samples, float threshold) const {
+  const int T = impl_->scored_timesteps();
+  const int m = screening_rows(n_samples, T);
+  if (m == 0 || n_samples % T != 0 || !std::isfinite(threshold)) return decide(obs, seed, n_samples);
+  torch::Generator gen = make_generator(seed);
+  const torch::Tensor o = impl_->obs_tensor(obs.transpose());
+  const torch::Tensor x = impl_->sample(o, gen);
+  Decision d;
+  d.chunk = impl_->raw_chunk(x[0], obs);
+  // rows (k, T): row j * T + t of a block has timestep t, so every block is whole strata
+  std::vector<torch::Tensor> blocks;
+  for (int next = m;;) {
+    blocks.push_back(impl_->row_losses(o, x, next, gen).view({next / T, T}));
+    d.rows += next;
+    const torch::Tensor rows = blocks.size() == 1 ? blocks[0] : torch::cat(blocks, 0);
+    d.loss = rows.mean().item<float>();
+    if (d.rows >= n_samples) break;
+    // the stratified mean's standard error, as loss_quantile's screen: var = sum_t var_t / k / T^2
+    const int64_t k = rows.size(0);
+    const float se = std::sqrt(rows.var(0, /*unbiased=*/true).sum().item<float>() / static_cast<float>(k * T * T));
+    if (d.loss + LossQuantile::kScreenZ * se < threshold) break;
+    next = std::min(d.rows, n_samples - d.rows);
+  }
+  return d;
+}
+
 Decision DiffusionPolicy::decide(const Vec& obs, uint64_t seed, int n_samples, const std::vector<ScoreSpace>& also) const {
   torch::Generator gen = make_generator(seed);
   const torch::Tensor o = impl_->obs_tensor(obs.transpose());
@@ -534,6 +566,7 @@ Decision DiffusionPolicy::decide(const Vec& obs, uint64_t seed, int n_samples, c
   const std::vector<torch::Tensor> rows = impl_->row_losses(o, x, n_samples, gen, spaces, impl_->scored_timesteps());
   Decision d;
   d.loss = rows[0].mean(1).item<float>();  // what impl_->expected_loss gives: the same rows, the same mean
+  d.rows = n_samples;
   for (size_t i = 1; i < rows.size(); ++i) d.also.push_back(rows[i].mean(1).item<float>());
   d.chunk = impl_->raw_chunk(x[0], obs);
   return d;

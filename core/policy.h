@@ -51,6 +51,7 @@ struct Decision {
   Mat chunk;                // T_p x action_dim, raw units
   float loss = 0.f;         // expected diffusion loss of (obs, chunk)
   std::vector<float> also;  // the same rows' loss in each of decide()'s `also` spaces, in order
+  int rows = 0;             // rows of noise `loss` is the mean of (decide_screened: fewer where it stopped early)
 };
 
 /// A threshold over training pairs: the alpha-quantile of their expected losses.
@@ -135,6 +136,14 @@ class DiffusionPolicy {
   /// noise, the same timesteps and the same pass of the network, so `loss` and `chunk` equal the
   /// plain decide()'s and each extra space costs only its conversion.
   Decision decide(const Vec& obs, uint64_t seed, int n_samples, const std::vector<ScoreSpace>& also) const;
+  /// decide() for a gate with this threshold: the same chunk (the same sampling), and its loss screened
+  /// as loss_quantile screens pairs. The first rows are an eighth of n_samples (whole timestep strata);
+  /// while their mean plus LossQuantile::kScreenZ standard errors reaches `threshold`, as many rows
+  /// again are scored, up to n_samples in all. A loss that stops early lies kScreenZ standard errors
+  /// below the threshold, so the verdict (loss > threshold) is the one n_samples rows give; only its
+  /// value is the coarser estimate (Decision::rows says over how many rows). With n_samples not a
+  /// multiple of the strata, or screening not worth it (as in loss_quantile), all rows at once.
+  Decision decide_screened(const Vec& obs, uint64_t seed, int n_samples, float threshold) const;
 
   /// Writes config, normalisers, weights and EMA weights to one file (atomically: temp file + rename).
   /// Throws Error naming the file on failure; an existing checkpoint is left intact.

@@ -101,6 +101,7 @@ bool DaggerSession::tick() {
       const GateDecision g = method_.gated() ? gate_.record(d.violation) : GateDecision{};
       SessionEvent e{EventKind::kDecision};
       e.score = d.score;
+      e.score_rows = d.score_rows;
       e.threshold = d.threshold;
       e.risk_q = d.risk_q;
       e.violation = g.violation;

@@ -72,6 +72,7 @@ struct SessionEvent {
   int step = 0;              // env step within the episode
   Control control = Control::kRobot;
   float score = 0;           // kDecision: the method's score (loss or variance)
+  int score_rows = 0;        // kDecision: rows of noise a loss score is the mean of (MethodDecision::score_rows)
   float threshold = 0;       // kDecision: the threshold it was compared with
   float risk_q = -1;         // kDecision (thrifty): min Q
   bool violation = false;    // kDecision

@@ -79,7 +79,7 @@ void apply_dagger(const json& j, DaggerConfig& d) {
 }
 
 void apply_method(const json& j, MethodConfig& m) {
-  require_known_keys(j, {"alpha", "members", "loss_samples", "calibration_pairs", "screen_threshold", "score_weights", "risk_quantile",
+  require_known_keys(j, {"alpha", "members", "loss_samples", "calibration_pairs", "screen_threshold", "screen_gate", "score_weights", "risk_quantile",
                          "critic_steps", "precision", "score_space", "score_timesteps", "compare_scores"},
                      "method");
   read(j, "alpha", m.alpha, "method");
@@ -87,6 +87,7 @@ void apply_method(const json& j, MethodConfig& m) {
   read(j, "loss_samples", m.loss_samples, "method");
   read(j, "calibration_pairs", m.calibration_pairs, "method");
   read(j, "screen_threshold", m.screen_threshold, "method");
+  read(j, "screen_gate", m.screen_gate, "method");
   read(j, "risk_quantile", m.risk_quantile, "method");
   read(j, "critic_steps", m.critic.steps, "method");
   read(j, "score_timesteps", m.score_timesteps, "method");
@@ -127,6 +128,7 @@ void apply_method(const json& j, MethodConfig& m) {
 json method_json(const MethodConfig& m) {
   return json{{"alpha", m.alpha}, {"members", m.members}, {"loss_samples", m.loss_samples},
               {"calibration_pairs", m.calibration_pairs}, {"screen_threshold", m.screen_threshold},
+              {"screen_gate", m.screen_gate},
               {"score_weights", m.score_raw_weights ? "raw" : "ema"}, {"risk_quantile", m.risk_quantile}, {"critic_steps", m.critic.steps},
               {"precision", m.precision}, {"score_space", m.score_space}, {"score_timesteps", m.score_timesteps}, {"compare_scores", m.compare_scores}};
 }

@@ -97,6 +97,24 @@ TEST(DaggerNav2d, DiffDaggerIsNoWorseThanBcWithTheSameExpertBudget) {
     EXPECT_EQ(read_dataset(r.dataset).size(), static_cast<size_t>(c.dagger.final_demos));
     EXPECT_TRUE(fs::exists(o.out + "/queries.jsonl"));
     EXPECT_TRUE(fs::exists(o.out + "/checkpoints/update_1/policy.pt"));
+    if (o.method == "diff") {
+      // every decision says over how many rows its loss was scored; one scored with fewer than N_b
+      // (the screened gate stopped early) lies below the threshold
+      std::ifstream log(o.out + "/queries.jsonl");
+      int decisions = 0;
+      for (std::string l; std::getline(log, l);) {
+        const nlohmann::json j = nlohmann::json::parse(l);
+        if (j["event"] != "decision") continue;
+        ++decisions;
+        const int rows = j.at("score_rows").get<int>();
+        EXPECT_GE(rows, 1);
+        EXPECT_LE(rows, c.method.loss_samples);
+        if (rows < c.method.loss_samples) {
+          EXPECT_LT(j["score"].get<double>(), j["threshold"].get<double>());
+        }
+      }
+      EXPECT_GT(decisions, 0);
+    }
     const auto results = evaluate_rollouts(*env, *trained, 20, RolloutSpec::of(c.dagger), 4242);
     success[i] = success_rate(results);
     fs::remove_all(o.out);

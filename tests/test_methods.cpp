@@ -506,6 +506,42 @@ TEST(Methods, TheRegistryDescribesEveryMethodItBuilds) {
   }
 }
 
+// Diff-DAgger screens its gate (DiffusionPolicy::decide_screened) unless told not to or unless compared
+// rules need all the rows: the same chunk, the same verdict against the same threshold, fewer rows
+// where the score lies well below it.
+TEST(Methods, DiffScreensItsGateWhereOnlyTheVerdictCounts) {
+  const auto episodes = bimodal_episodes(12, 10, 2, 2, /*seed=*/5);
+  auto build = [&](bool screen, std::vector<std::string> compare) {
+    MethodConfig mc = small_method();
+    mc.loss_samples = 128;  // T_d 16: screening rows 32, then 64, 128 in all
+    mc.screen_gate = screen;
+    mc.compare_scores = std::move(compare);
+    auto m = make_method("diff", fakes::tiny_policy(), mc, 1);
+    m->update(episodes, {}, short_training());
+    return m;
+  };
+  auto screened = build(true, {}), full = build(false, {}), compared = build(true, {"epsilon"});
+  ASSERT_FLOAT_EQ(screened->threshold(), full->threshold()) << "the same training and threshold";
+  int early = 0, n = 0;
+  for (const Episode& e : episodes)
+    for (Eigen::Index t = 0; t < e.obs.rows(); t += 2, ++n) {
+      const Vec obs = e.obs.row(t).transpose();
+      const uint64_t seed = 300 + static_cast<uint64_t>(n);
+      const MethodDecision a = screened->decide(obs, seed), b = full->decide(obs, seed), c = compared->decide(obs, seed);
+      EXPECT_TRUE(a.chunk.isApprox(b.chunk, 0.f));
+      EXPECT_EQ(b.score_rows, 128);
+      EXPECT_EQ(c.score_rows, 128) << "compared rules score the main rule's own rows";
+      EXPECT_TRUE(a.score_rows == 32 || a.score_rows == 64 || a.score_rows == 128) << a.score_rows;
+      EXPECT_EQ(a.violation, violates(a.score, a.threshold));
+      if (a.score_rows < 128) {
+        ++early;
+        EXPECT_FALSE(a.violation);
+        EXPECT_LT(a.score, a.threshold);
+      }
+    }
+  EXPECT_GT(early, n / 2) << "most decisions along the demonstrations lie well below the 0.99-quantile";
+}
+
 TEST(Methods, ADecisionSaysWhyItViolates) {
   const auto episodes = bimodal_episodes(12, 10, 2, 2, /*seed=*/5);
   MethodConfig mc = small_method();

@@ -299,6 +299,56 @@ TEST_F(BimodalPolicy, DecisionGivesAChunkInRangeAndAFiniteLoss) {
   EXPECT_THROW(policy_->sample(Vec::Zero(5), 0), Error);  // wrong observation size
 }
 
+// The screened gate: the chunk is the plain decision's (the same sampling); a threshold far above
+// the chunk's loss is settled by the first eighth of the rows, one far below it takes all of them,
+// and in between the verdict is the one all rows give wherever that is not a coin flip.
+TEST_F(BimodalPolicy, AScreenedDecisionStopsEarlyOnlyWellBelowTheThreshold) {
+  constexpr int kRows = 512;  // T_d 16: screening rows 64, then 128, 256, 512 in all
+  int early = 0, full = 0, compared = 0;
+  for (int i = 0; i < 24; ++i) {
+    const Vec obs = data_->obs.row(i * 13).transpose();
+    const uint64_t seed = 100 + static_cast<uint64_t>(i);
+    const Decision plain = policy_->decide(obs, seed, kRows);
+    EXPECT_EQ(plain.rows, kRows);
+    // far above: settled by the first 64 rows
+    const Decision above = policy_->decide_screened(obs, seed, kRows, 4 * plain.loss);
+    EXPECT_TRUE(above.chunk.isApprox(plain.chunk, 0.f)) << i;
+    EXPECT_EQ(above.rows, 64) << i;
+    EXPECT_LT(above.loss, 4 * plain.loss);
+    // at or below the loss: every row, and a mean over all of them
+    const Decision below = policy_->decide_screened(obs, seed, kRows, 0.5f * plain.loss);
+    EXPECT_EQ(below.rows, kRows) << i;
+    EXPECT_GT(below.loss, 0.5f * plain.loss) << i;
+    EXPECT_NEAR(below.loss, plain.loss, 0.25f * plain.loss) << "another draw of the same expectation";
+    // thresholds over the range between: the verdict agrees with all rows' except near the
+    // threshold, where two draws of 512 rows disagree as well
+    for (const float f : {0.8f, 1.1f, 1.3f, 1.6f, 2.0f}) {
+      const Decision d = policy_->decide_screened(obs, seed, kRows, f * plain.loss);
+      EXPECT_TRUE(d.rows == 64 || d.rows == 128 || d.rows == 256 || d.rows == 512) << d.rows;
+      (d.rows < kRows ? early : full)++;
+      if (d.rows < kRows) {
+        EXPECT_LT(d.loss, f * plain.loss) << "stopped early above the threshold";
+      }
+      if (f >= 1.3f || f <= 0.8f) {
+        ++compared;
+        EXPECT_EQ(d.loss > f * plain.loss, plain.loss > f * plain.loss) << i << " at " << f;
+      }
+    }
+  }
+  EXPECT_GT(early, 0);
+  EXPECT_GT(full, 0);
+  EXPECT_GT(compared, 50);
+  // no threshold yet (infinite), or too few rows to screen: the plain decision
+  const Vec obs = data_->obs.row(5).transpose();
+  const Decision plain = policy_->decide(obs, 7, 64);
+  const Decision none = policy_->decide_screened(obs, 7, 64, INFINITY);
+  EXPECT_EQ(none.loss, plain.loss);
+  EXPECT_EQ(none.rows, 64);
+  const Decision few = policy_->decide_screened(obs, 7, 64, 1e6f);
+  EXPECT_EQ(few.rows, 64) << "an eighth of 64 rows is less than two per timestep: not screened";
+  EXPECT_EQ(few.loss, plain.loss);
+}
+
 // A decision scored in further spaces from its own rows: its chunk and loss are the plain decision's,
 // and each further loss is what the decision gives with the policy scoring in that space (the same
 // sample, the same noise), also when the policy scores only the low-noise timesteps.
