@@ -21,12 +21,6 @@ namespace {
 namespace fs = std::filesystem;
 using nlohmann::json;
 
-struct Run {
-  std::string method;  // "diff", ... or the folder's name for a lone dagger run
-  std::string log;
-  std::vector<json> events;
-};
-
 std::vector<json> read_events(const std::string& path) {
   std::ifstream f(path);
   if (!f) throw Error(path + ": cannot open the event log");
@@ -74,9 +68,9 @@ struct Iteration {
   bool complete = false;
 };
 
-std::vector<Iteration> iteration_rows(const Run& r) {
+std::vector<Iteration> iteration_rows(const std::vector<json>& events) {
   std::vector<Iteration> rows;
-  for (const json& e : r.events) {
+  for (const json& e : events) {
     const std::string kind = e["event"];
     if (kind == "update_finished") {
       if (!rows.empty()) rows.back().complete = true;
@@ -109,6 +103,13 @@ std::vector<Iteration> iteration_rows(const Run& r) {
   return rows;
 }
 
+struct Run {
+  std::string method;  // "diff", ... or the folder's name for a lone dagger run
+  std::string log;
+  std::vector<json> events;
+  std::vector<Iteration> rows;  // iteration_rows(events)
+};
+
 // Figure 4's samples, wall-clock seconds per iteration: every update's training and threshold, and the
 // robot's decisions of every iteration but the last (a finished run's last update has none after it;
 // a running one's are not all in yet).
@@ -118,7 +119,7 @@ struct Iterations {
 
 Iterations iterations(const Run& r) {
   Iterations it;
-  const std::vector<Iteration> rows = iteration_rows(r);
+  const std::vector<Iteration>& rows = r.rows;
   for (size_t i = 0; i < rows.size(); ++i) {
     it.train.push_back(rows[i].train_s);
     it.threshold.push_back(rows[i].threshold_s);
@@ -142,16 +143,19 @@ std::vector<std::string> plot_runs(const PlotOptions& o) {
   if (!fs::is_directory(o.dir)) throw Error(o.dir + ": no such run folder");
   std::vector<Run> runs;
   if (fs::exists(o.dir + "/queries.jsonl")) {
-    runs.push_back({fs::path(o.dir).filename().string(), o.dir + "/queries.jsonl", {}});
+    runs.push_back({fs::path(o.dir).filename().string(), o.dir + "/queries.jsonl", {}, {}});
   } else {
     for (const std::string& m : method_names()) {
       const std::string log = fmt::format("{}/runs/{}_seed{}/queries.jsonl", o.dir, m, o.seed);
-      if (fs::exists(log)) runs.push_back({m, log, {}});
+      if (fs::exists(log)) runs.push_back({m, log, {}, {}});
     }
   }
   if (runs.empty())
     throw Error(fmt::format("{}: holds neither queries.jsonl (a dagger run) nor runs/METHOD_seed{}/queries.jsonl (an eval run)", o.dir, o.seed));
-  for (Run& r : runs) r.events = read_events(r.log);
+  for (Run& r : runs) {
+    r.events = read_events(r.log);
+    r.rows = iteration_rows(r.events);
+  }
 
   int initial_demos = 0;
   if (fs::exists(o.dir + "/config.json")) {
@@ -227,7 +231,7 @@ std::vector<std::string> plot_runs(const PlotOptions& o) {
     }
     bool partial = false;
     for (const Run& r : runs) {
-      const std::vector<Iteration> rows = iteration_rows(r);
+      const std::vector<Iteration>& rows = r.rows;
       if (rows.empty()) continue;
       const bool draws = asks(r);  // BC trains once: a single point, no iterations to draw
       ui::LineSeries series[kPanels];

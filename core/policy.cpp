@@ -459,6 +459,13 @@ static int screening_rows(int n_samples, int T) {
   return 4 * m > n_samples ? 0 : m;
 }
 
+// The standard error of a screening mean over rows (..., k, T): k rows at each of T timesteps, so the
+// stratified estimate var(mean) = sum_t var_t / k / T^2. Shape (...).
+static torch::Tensor stratified_se(const torch::Tensor& rows) {
+  const int64_t k = rows.size(-2), T = rows.size(-1);
+  return (rows.var(-2, /*unbiased=*/true).sum(-1) / static_cast<double>(k * T * T)).sqrt();
+}
+
 LossQuantile DiffusionPolicy::loss_quantile(const ChunkDataset& data, double alpha, uint64_t seed, int n_samples,
                                             bool screen, const ProgressFn& progress) const {
   if (data.size() == 0) throw Error("policy: no training pairs to set a threshold over");
@@ -485,9 +492,7 @@ LossQuantile DiffusionPolicy::loss_quantile(const ChunkDataset& data, double alp
         // (len, m) -> (len, k, T): row j * T + t has timestep t
         const torch::Tensor rows = impl_->row_losses(obs.narrow(0, start, len), chunks.narrow(0, start, len), m, g).view({len, k, T});
         const torch::Tensor mean = rows.mean({1, 2});
-        // stratified estimate: var(mean) = sum_t var_t / k / T^2
-        const torch::Tensor se = (rows.var(1, /*unbiased=*/true).sum(1) / (k * T * T)).sqrt();
-        const torch::Tensor hi = mean + LossQuantile::kScreenZ * se;
+        const torch::Tensor hi = mean + LossQuantile::kScreenZ * stratified_se(rows);
         const torch::Tensor both = torch::stack({hi, mean}, 1).contiguous();  // (bound, mean) a pair
         const float* p = both.data_ptr<float>();
         return std::vector<float>(p, p + 2 * len);
@@ -548,10 +553,7 @@ Decision DiffusionPolicy::decide_screened(const Vec& obs, uint64_t seed, int n_s
     const torch::Tensor rows = blocks.size() == 1 ? blocks[0] : torch::cat(blocks, 0);
     d.loss = rows.mean().item<float>();
     if (d.rows >= n_samples) break;
-    // the stratified mean's standard error, as loss_quantile's screen: var = sum_t var_t / k / T^2
-    const int64_t k = rows.size(0);
-    const float se = std::sqrt(rows.var(0, /*unbiased=*/true).sum().item<float>() / static_cast<float>(k * T * T));
-    if (d.loss + LossQuantile::kScreenZ * se < threshold) break;
+    if (d.loss + LossQuantile::kScreenZ * stratified_se(rows).item<float>() < threshold) break;
     next = std::min(d.rows, n_samples - d.rows);
   }
   return d;
