@@ -630,6 +630,25 @@ TEST(DaggerNav2d, AStoppedEvaluationRerunsOnlyTheUnfinishedCells) {
   const std::string rq1 = text(e.out + "/rq1.csv"), rq2 = text(e.out + "/rq2.csv");
   for (const char* cell : {"diff_seed0_rq1.json", "diff_seed0_rq2.json", "bc_seed0_rq2.json"})
     EXPECT_TRUE(fs::exists(e.out + "/cells/" + cell)) << cell;
+  {
+    // the RQ1 cell keeps its rollouts, one line each, and its counts are theirs
+    const nlohmann::json cell = nlohmann::json::parse(text(e.out + "/cells/diff_seed0_rq1.json"));
+    std::istringstream lines(text(e.out + "/cells/diff_seed0_rq1_rollouts.jsonl"));
+    int rollouts = 0, successes = 0, tp = 0, fp = 0;
+    for (std::string line; std::getline(lines, line);) {
+      const RolloutResult r = rollout_from_json(line);
+      ++rollouts;
+      successes += r.success;
+      tp += r.queried && !r.success;
+      fp += r.queried && r.success;
+      EXPECT_EQ(r.queried, r.first_query_step >= 0) << line;
+      EXPECT_GT(r.steps, 0) << line;
+    }
+    EXPECT_EQ(rollouts, e.episodes);
+    EXPECT_DOUBLE_EQ(cell.at("success").get<double>(), static_cast<double>(successes) / rollouts);
+    EXPECT_EQ(cell.at("tp").get<int>(), tp);
+    EXPECT_EQ(cell.at("fp").get<int>(), fp);
+  }
 
   // as if stopped during BC's interactive learning: its cell reruns, Diff-DAgger's are read back
   fs::remove(e.out + "/cells/bc_seed0_rq2.json");

@@ -414,6 +414,12 @@ void run_eval(const ExperimentConfig& config, const EvalOptions& o) {
     // method.compare_scores: the other rules' verdicts on these very rollouts
     const std::vector<std::string> rules = m->compare_rules();
     for (size_t i = 0; i < rules.size(); ++i) j["compare"][rules[i]] = prediction_json(failure_prediction(results, i));
+    // Behind the counts, one line a rollout (success, outcome, steps, whether and at which step the
+    // rule would have asked, the compared rules' verdicts), kept beside the cell: written before it,
+    // so a finished cell always has them
+    std::string lines;
+    for (const RolloutResult& r : results) lines += rollout_to_json(r) + "\n";
+    write_text(o.out + "/cells/" + EvalCell{name, s, true}.stem() + "_rollouts.jsonl", lines);
     save_cell(cell_file(name, s, true), j);
     fs::remove_all(partial);
   };
