@@ -132,7 +132,10 @@ void write_eval_report(const ExperimentConfig& config, const EvalOptions& o, con
 
   namespace fs = std::filesystem;
   // Plots: one per RQ that has a finished cell (a partial report may have none for RQ2 and RQ3).
-  auto bars = [&](const std::string& title, const std::string& label, auto value, bool gated_only) {
+  // A partial report's bars can be over different seeds (one method's cells finish before another's):
+  // each says under its name over how many, so that a reader does not compare 3 seeds with 1 unawares.
+  const bool partial = !missing.empty();
+  auto bars = [&](const std::string& title, const std::string& label, auto value, auto seeds, bool gated_only) {
     ui::BarPanel p;
     p.title = title;
     p.y_label = label;
@@ -141,16 +144,16 @@ void write_eval_report(const ExperimentConfig& config, const EvalOptions& o, con
       if (gated_only && !method_info(name).gated) continue;
       const auto [m, sd] = value(rows.at(name));
       if (!std::isfinite(m)) continue;  // no finished cell (a partial report)
-      p.categories.push_back(method_title(name));
+      const size_t n = seeds(rows.at(name));
+      p.categories.push_back(partial ? fmt::format("{} ({} seed{})", method_title(name), n, n == 1 ? "" : "s") : method_title(name));
       p.values.push_back(m);
       p.errors.push_back(sd);
       p.colors.push_back(method_color(name));
     }
     return p;
   };
-  const bool partial = !missing.empty();
   const std::string caption =
-      partial ? fmt::format("task {} (preset {}): partial, each bar over the seeds finished (up to {}), {} rollouts each", config.task,
+      partial ? fmt::format("task {} (preset {}): partial, each bar over the seeds finished (named under it; up to {}), {} rollouts each", config.task,
                             config.preset, o.seeds, o.episodes)
       : o.seeds > 1 ? fmt::format("task {} (preset {}): mean +- sample std over {} seeds, {} rollouts each", config.task, config.preset, o.seeds, o.episodes)
                   : fmt::format("task {} (preset {}): one seed, {} rollouts each", config.task, config.preset, o.episodes);
@@ -165,15 +168,18 @@ void write_eval_report(const ExperimentConfig& config, const EvalOptions& o, con
     ui::write_png(o.out + "/" + file, ui::hstack(images, caption));
     plots.push_back("`" + file + "`");
   };
+  const auto rq1_n = [](const EvalRow& r) { return r.rq1_seeds.size(); };
+  const auto rq2_n = [](const EvalRow& r) { return r.success.size(); };
+  const auto rq3_n = [](const EvalRow& r) { return r.last_train.size(); };
   plot("rq1_failure_prediction.png",
-       {bars("RQ1: F1 of queries vs failures", "F1", [](const EvalRow& r) { return finite_mean_std(r.f1); }, true),
-        bars("RQ1: accuracy", "accuracy", [](const EvalRow& r) { return finite_mean_std(r.acc); }, true)});
+       {bars("RQ1: F1 of queries vs failures", "F1", [](const EvalRow& r) { return finite_mean_std(r.f1); }, rq1_n, true),
+        bars("RQ1: accuracy", "accuracy", [](const EvalRow& r) { return finite_mean_std(r.acc); }, rq1_n, true)});
   plot("rq2_success.png", {bars(fmt::format("RQ2: success after N_f = {}", d.final_demos), "success rate",
-                                [](const EvalRow& r) { return mean_std(r.success); }, false)});
+                                [](const EvalRow& r) { return mean_std(r.success); }, rq2_n, false)});
   plot("rq3_wallclock.png",
-       {bars("RQ3: training, final iteration", "seconds", [](const EvalRow& r) { return mean_std(r.last_train); }, false),
-        bars("RQ3: threshold setting, final", "seconds", [](const EvalRow& r) { return mean_std(r.last_threshold); }, false),
-        bars("RQ3: inference, final iteration", "seconds", [](const EvalRow& r) { return mean_std(r.last_inference); }, false)});
+       {bars("RQ3: training, final iteration", "seconds", [](const EvalRow& r) { return mean_std(r.last_train); }, rq3_n, false),
+        bars("RQ3: threshold setting, final", "seconds", [](const EvalRow& r) { return mean_std(r.last_threshold); }, rq3_n, false),
+        bars("RQ3: inference, final iteration", "seconds", [](const EvalRow& r) { return mean_std(r.last_inference); }, rq3_n, false)});
 
   // Report.
   const std::string budget =
