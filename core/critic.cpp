@@ -47,6 +47,8 @@ RiskCritic::RiskCritic(int obs_dim, int action_dim, const CriticConfig& config) 
 }
 
 RiskCritic::~RiskCritic() = default;
+RiskCritic::RiskCritic(RiskCritic&&) noexcept = default;
+RiskCritic& RiskCritic::operator=(RiskCritic&&) noexcept = default;
 
 float RiskCritic::train(const std::vector<RecordedEpisode>& episodes, const ProgressFn& progress) {
   Impl& m = *impl_;

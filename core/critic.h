@@ -33,6 +33,8 @@ class RiskCritic {
   ~RiskCritic();
   RiskCritic(const RiskCritic&) = delete;
   RiskCritic& operator=(const RiskCritic&) = delete;
+  RiskCritic(RiskCritic&&) noexcept;
+  RiskCritic& operator=(RiskCritic&&) noexcept;
 
   /// Fits Q on the transitions of `episodes` (demonstrations and robot rollouts; reward 1 on the
   /// successful step, done on the last). Returns the final TD loss. `progress` counts the gradient

@@ -119,6 +119,22 @@ std::string PolicyEnsemble::cache_key(const std::vector<Episode>& episodes, cons
   return c10::sha1(material).str();
 }
 
+void PolicyEnsemble::load_members(const std::vector<std::string>& files) {
+  if (static_cast<int>(files.size()) != size())
+    throw Error(fmt::format("ensemble: {} member files for {} members", files.size(), size()));
+  for (int m = 0; m < size(); ++m) {
+    const std::string& file = files[static_cast<size_t>(m)];
+    const auto loaded = DiffusionPolicy::from_checkpoint(file);
+    const std::vector<std::string> diffs = config_differences(loaded->config(), members_[static_cast<size_t>(m)]->config());
+    if (!diffs.empty()) {
+      std::string msg = fmt::format("{}: checkpoint does not match member {}'s config (checkpoint vs member):", file, m);
+      for (const auto& d : diffs) msg += "\n  " + d;
+      throw Error(msg);
+    }
+  }
+  for (int m = 0; m < size(); ++m) members_[static_cast<size_t>(m)]->load(files[static_cast<size_t>(m)]);
+}
+
 bool PolicyEnsemble::load_cached(const std::string& entry, std::vector<TrainStats>& stats) {
   const std::string index = entry + "/train.json";
   try {
@@ -126,21 +142,15 @@ bool PolicyEnsemble::load_cached(const std::string& entry, std::vector<TrainStat
     const auto& members = j.at("members");
     if (!members.is_array() || static_cast<int>(members.size()) != size())
       throw Error(fmt::format("field 'members' holds {} members, the ensemble has {}", members.size(), size()));
-    // every member's file read and checked before any member changes: a bad entry leaves the ensemble as it was
-    std::vector<std::string> files;
-    for (int m = 0; m < size(); ++m) {
-      files.push_back(fmt::format("{}/member_{}.pt", entry, m));
-      const auto loaded = DiffusionPolicy::from_checkpoint(files.back());
-      if (!config_differences(loaded->config(), members_[static_cast<size_t>(m)]->config()).empty())
-        throw Error(files.back() + ": another network than this ensemble's");
-    }
     std::vector<TrainStats> out(static_cast<size_t>(size()));
     for (int m = 0; m < size(); ++m) {
       out[static_cast<size_t>(m)].seconds = members[static_cast<size_t>(m)].at("seconds").get<double>();
       out[static_cast<size_t>(m)].losses = members[static_cast<size_t>(m)].at("losses").get<std::vector<float>>();
     }
     const double seconds = j.at("seconds").get<double>();
-    for (int m = 0; m < size(); ++m) members_[static_cast<size_t>(m)]->load(files[static_cast<size_t>(m)]);
+    std::vector<std::string> files;
+    for (int m = 0; m < size(); ++m) files.push_back(fmt::format("{}/member_{}.pt", entry, m));
+    load_members(files);  // a bad entry leaves the ensemble as it was
     stats = std::move(out);
     last_train_s_ = seconds;
     return true;

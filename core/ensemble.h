@@ -40,6 +40,11 @@ class PolicyEnsemble {
   double last_train_seconds() const { return last_train_s_; }
   bool last_train_reused() const { return last_train_reused_; }
 
+  /// Loads member m from files[m], all or nothing: every file is read and checked against its
+  /// member's network before any member changes, so that a missing, corrupt or mismatched file
+  /// leaves the ensemble as it was. Throws Error naming the first bad file.
+  void load_members(const std::vector<std::string>& files);
+
   /// What each member trains on (train() draws the same): member 0 all of `episodes`, member i its
   /// own bootstrap resample, drawn from the ensemble's seed.
   std::vector<std::vector<Episode>> member_data(const std::vector<Episode>& episodes) const;

@@ -213,7 +213,7 @@ class EnsembleMethod : public Method {
                      const std::vector<RecordedEpisode>&, const ProgressFn& progress) override {
     if (static_cast<int>(checkpoints.size()) != ensemble_.size())
       throw Error(fmt::format("{}: adopt needs one checkpoint per member ({}), got {}", name(), ensemble_.size(), checkpoints.size()));
-    for (int i = 0; i < ensemble_.size(); ++i) ensemble_.member(i).load(checkpoints[static_cast<size_t>(i)]);
+    ensemble_.load_members(checkpoints);
     UpdateReport r;
     const ChunkDataset data = ChunkDataset::from_episodes(expert, ensemble_.member(0).config().horizon);
     r.pairs = data.size();
@@ -248,9 +248,14 @@ class EnsembleMethod : public Method {
   }
   nlohmann::json state(const std::string& /*dir*/) const override { return {{"updates", updates_}, {"threshold", number_or_null(threshold_)}}; }
   void restore(const nlohmann::json& j, const std::string& dir) override {
-    for (int i = 0; i < ensemble_.size(); ++i) ensemble_.member(i).load(dir + "/member_" + std::to_string(i) + ".pt");
-    updates_ = j.at("updates").get<uint64_t>();
-    threshold_ = number_or_inf(j.at("threshold"));
+    // the fields first, then the members all or nothing: a bad file leaves the method as it was
+    const uint64_t updates = j.at("updates").get<uint64_t>();
+    const float threshold = number_or_inf(j.at("threshold"));
+    std::vector<std::string> files;
+    for (int i = 0; i < ensemble_.size(); ++i) files.push_back(dir + "/member_" + std::to_string(i) + ".pt");
+    ensemble_.load_members(files);
+    updates_ = updates;
+    threshold_ = threshold;
   }
 
   PolicyEnsemble ensemble_;
@@ -308,10 +313,16 @@ class ThriftyMethod : public EnsembleMethod {
     return j;
   }
   void restore(const nlohmann::json& j, const std::string& dir) override {
+    // Everything read before anything changes: a bad field or file leaves the method as it was.
+    // Before the first update the critic has never trained and its file is not written.
+    const float gamma = j.at("gamma").get<float>();
+    const bool has_critic = j.at("updates").get<uint64_t>() > 0;
+    const PolicyConfig& pc = ensemble_.member(0).config();
+    RiskCritic critic(pc.obs_dim, pc.action_dim, critic_config(config_, seed_));
+    if (has_critic) critic.load(dir + "/critic.pt");
     EnsembleMethod::restore(j, dir);
-    gamma_ = j.at("gamma").get<float>();
-    // before the first update the critic has never trained and its file is not written
-    if (updates_ > 0) critic_.load(dir + "/critic.pt");
+    gamma_ = gamma;
+    if (has_critic) critic_ = std::move(critic);
   }
 
  private:

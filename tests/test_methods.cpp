@@ -81,6 +81,59 @@ TEST(Methods, ThriftysRiskRefitLeavesItsPoliciesAlone) {
   EXPECT_EQ(diff->refit_risk(episodes, {}), 0.0);
 }
 
+// A resume point with a corrupt member or critic file is an Error naming the file, and the method
+// that tried to load it is left as it was: no member, critic, threshold or gamma of the bad state.
+TEST(Methods, ARestoreWithABadFileLeavesTheEnsembleAsItWas) {
+  namespace fs = std::filesystem;
+  const auto episodes = bimodal_episodes(12, 10, 2, 2, /*seed=*/5);
+  const std::string dir = (fs::temp_directory_path() / ("dd_restore_" + std::to_string(::getpid()))).string();
+  auto saved = make_method("thrifty", fakes::tiny_policy(), small_method(), 1);
+  saved->update(episodes, failing_robot_data(episodes), short_training());
+  saved->save_state(dir);
+  auto target = make_method("thrifty", fakes::tiny_policy(), small_method(), 2);
+  target->update(episodes, {}, short_training(20));
+  const Vec obs = Vec::Constant(2, 0.2f);
+  const MethodDecision before = target->decide(obs, 77);
+  const float threshold = target->threshold();
+  auto unchanged = [&](const std::string& what) {
+    const MethodDecision now = target->decide(obs, 77);
+    EXPECT_TRUE(now.chunk.isApprox(before.chunk, 1e-6f)) << what;
+    EXPECT_FLOAT_EQ(now.score, before.score) << what;
+    EXPECT_FLOAT_EQ(now.risk_q, before.risk_q) << what;
+    EXPECT_FLOAT_EQ(target->threshold(), threshold) << what;
+  };
+  auto message = [&](const std::string& file) {
+    try {
+      target->load_state(dir);
+    } catch (const Error& e) {
+      return std::string(e.what());
+    }
+    return std::string("(no error for a bad " + file + ")");
+  };
+  // the last member's file cut short: the members before it would have loaded one by one
+  const std::string member = dir + "/member_2.pt";
+  fs::resize_file(member, fs::file_size(member) / 2);
+  const std::string bad_member = message(member);
+  EXPECT_EQ(bad_member.rfind(member + ": ", 0), 0u) << bad_member;
+  unchanged("after a bad member file");
+  // good members, a cut-short critic
+  saved->save_state(dir);
+  const std::string critic = dir + "/critic.pt";
+  fs::resize_file(critic, fs::file_size(critic) / 2);
+  const std::string bad_critic = message(critic);
+  EXPECT_EQ(bad_critic.rfind(critic + ": ", 0), 0u) << bad_critic;
+  unchanged("after a bad critic file");
+  // and a good state loads whole: the saved method's decisions
+  saved->save_state(dir);
+  target->load_state(dir);
+  const MethodDecision want = saved->decide(obs, 77), got = target->decide(obs, 77);
+  EXPECT_TRUE(got.chunk.isApprox(want.chunk, 1e-6f));
+  EXPECT_FLOAT_EQ(got.score, want.score);
+  EXPECT_FLOAT_EQ(got.risk_q, want.risk_q);
+  EXPECT_FLOAT_EQ(target->threshold(), saved->threshold());
+  fs::remove_all(dir);
+}
+
 TEST(Methods, TheEnsemblesActingMemberIsTrainedOnAllTheData) {
   // Three episodes with disjoint observation ranges: a bootstrap resample usually misses one.
   auto episodes = bimodal_episodes(3, 10, 2, 2, /*seed=*/9);
