@@ -166,10 +166,15 @@ class DiffMethod : public Method {
     return j;
   }
   void restore(const nlohmann::json& j, const std::string& dir) override {
+    // the fields first: a state missing one leaves the policy as it was
+    const uint64_t updates = j.at("updates").get<uint64_t>();
+    const float threshold = number_or_inf(j.at("threshold"));
+    std::vector<float> compared(compare_.size());
+    for (size_t i = 0; i < compare_.size(); ++i) compared[i] = number_or_inf(j.at("compare_thresholds").at(compare_[i].name()));
     policy_.load(dir + "/policy.pt");
-    updates_ = j.at("updates").get<uint64_t>();
-    threshold_ = number_or_inf(j.at("threshold"));
-    for (size_t i = 0; i < compare_.size(); ++i) compare_thresholds_[i] = number_or_inf(j.at("compare_thresholds").at(compare_[i].name()));
+    updates_ = updates;
+    threshold_ = threshold;
+    compare_thresholds_ = std::move(compared);
   }
 
  private:
