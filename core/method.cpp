@@ -299,11 +299,17 @@ class ThriftyMethod : public EnsembleMethod {
     return train_s + threshold_s;
   }
 
+  // The rule's two halves, each judged alone on the same decisions: which of them asks.
+  std::vector<std::string> compare_rules() const override { return {"novelty", "risk"}; }
+
   MethodDecision decide(const Vec& obs, uint64_t seed) override {
     MethodDecision m = EnsembleMethod::decide(obs, seed);
     m.risk_q = critic_.q(obs.transpose(), m.chunk.row(0)).front();
     // risk: the critic's success estimate below gamma (a lower bound: the rule on -Q and -gamma)
-    if (!m.violation && violates(-m.risk_q, -gamma_)) {
+    const bool risky = violates(-m.risk_q, -gamma_);
+    m.compare_scores = {m.score, m.risk_q};
+    m.compare_violations = {static_cast<uint8_t>(m.violation), static_cast<uint8_t>(risky)};
+    if (!m.violation && risky) {
       m.violation = true;
       m.reason = QueryReason::kRisk;
     }

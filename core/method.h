@@ -74,7 +74,7 @@ struct MethodDecision {
   QueryReason reason = QueryReason::kNone;
   float risk_q = -1;         // thrifty: min Q(o, a); -1 when not computed
   int score_rows = 0;        // diff: rows of noise the score is the mean of (fewer than N_b where screened); 0: not a loss
-  std::vector<float> compare_scores;        // diff: the score of each MethodConfig::compare_scores rule
+  std::vector<float> compare_scores;        // the score of each Method::compare_rules() rule
   std::vector<uint8_t> compare_violations;  // and its verdict
 };
 
@@ -98,7 +98,8 @@ class Method {
   virtual std::string name() const = 0;
   /// False for BC: it never asks.
   virtual bool gated() const { return true; }
-  /// The rules decide() also judges each decision by (MethodConfig::compare_scores; diff only).
+  /// The rules decide() also judges each decision by: diff's MethodConfig::compare_scores, and
+  /// Thrifty's two halves ("novelty": the ensemble's spread; "risk": the critic), each alone.
   virtual std::vector<std::string> compare_rules() const { return {}; }
   /// Trains on `expert` (all expert data so far) and sets the threshold; `robot` holds the robot's
   /// own rollouts (Thrifty's critic learns from them).

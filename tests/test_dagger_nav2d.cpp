@@ -352,7 +352,7 @@ TEST(DaggerNav2d, QuickEvaluationWritesEveryFile) {
   EXPECT_EQ(header.rfind("method,tpr,tnr,f1,acc", 0), 0u) << header;
   int rows = 0;
   while (std::getline(rq1, line)) ++rows;
-  EXPECT_EQ(rows, 3);  // diff, ensemble, thrifty (BC has no query rule)
+  EXPECT_EQ(rows, 5);  // diff, ensemble, thrifty and its rule's two halves alone (BC has no query rule)
   std::ifstream rq2(e.out + "/rq2.csv");
   std::getline(rq2, header);
   EXPECT_EQ(header.rfind("method,success_rate,n", 0), 0u) << header;
@@ -362,10 +362,16 @@ TEST(DaggerNav2d, QuickEvaluationWritesEveryFile) {
   EXPECT_NE(header.find(",tp,fp,tn,fn,"), std::string::npos) << header;
   // and each row's Fisher p is the test of those counts
   EXPECT_NE(header.find(",fisher_p"), std::string::npos) << header;
+  std::map<std::string, long> asked;  // rollouts each row's rule asked in
   for (auto& f : read_csv(e.out + "/rq1.csv")) {
     const double p = fisher_exact_p(std::stol(f["tp"]), std::stol(f["fp"]), std::stol(f["fn"]), std::stol(f["tn"]));
     EXPECT_NEAR(std::stod(f["fisher_p"]), p, 0.006 * p + 1e-12) << f["method"];  // printed to 3 significant figures
+    asked[f["method"]] = std::stol(f["tp"]) + std::stol(f["fp"]);
   }
+  // Thrifty's halves on its own rollouts: K violations in a row of either are K of the rule
+  ASSERT_TRUE(asked.count("thrifty@novelty") && asked.count("thrifty@risk"));
+  EXPECT_LE(asked["thrifty@novelty"], asked["thrifty"]);
+  EXPECT_LE(asked["thrifty@risk"], asked["thrifty"]);
   const std::string report = [&] {
     std::ifstream r(e.out + "/report.md");
     std::stringstream ss;

@@ -613,4 +613,35 @@ TEST(Methods, ADecisionSaysWhyItViolates) {
   EXPECT_LT(violations, 24);
 }
 
+// Thrifty's rule asks when the ensemble's spread is above its threshold (novelty) or the critic's
+// success estimate is below gamma (risk); each half is also judged alone, on the same decision, so
+// that an evaluation can say which of them asked (rollouts gate compared rules like the rule:
+// Rollouts.ComparedRulesAreJudgedOnTheSameRollouts).
+TEST(Methods, ThriftyJudgesEachHalfOfItsRuleAlone) {
+  const auto episodes = bimodal_episodes(12, 10, 2, 2, /*seed=*/5);
+  MethodConfig mc = small_method();
+  mc.alpha = 0.3;  // a low threshold: some decisions along the data are novel, some not
+  auto m = make_method("thrifty", fakes::tiny_policy(), mc, 1);
+  EXPECT_EQ(m->compare_rules(), (std::vector<std::string>{"novelty", "risk"}));
+  m->update(episodes, failing_robot_data(episodes), short_training());
+  int novel = 0, asked = 0;
+  for (uint64_t i = 0; i < 24; ++i) {
+    const Vec obs = episodes[i % episodes.size()].obs.row(static_cast<Eigen::Index>(i % 10)).transpose();
+    const MethodDecision d = m->decide(obs, i);
+    ASSERT_EQ(d.compare_violations.size(), 2u);
+    ASSERT_EQ(d.compare_scores.size(), 2u);
+    const bool novelty = d.compare_violations[0], risk = d.compare_violations[1];
+    EXPECT_EQ(novelty, violates(d.score, d.threshold));
+    EXPECT_FLOAT_EQ(d.compare_scores[0], d.score);
+    EXPECT_FLOAT_EQ(d.compare_scores[1], d.risk_q);
+    EXPECT_EQ(d.violation, novelty || risk);
+    EXPECT_EQ(d.reason, novelty ? QueryReason::kScore : risk ? QueryReason::kRisk : QueryReason::kNone);
+    novel += novelty;
+    asked += d.violation;
+  }
+  EXPECT_GT(novel, 0);
+  EXPECT_LT(novel, 24);
+  EXPECT_GE(asked, novel);
+}
+
 }  // namespace dd

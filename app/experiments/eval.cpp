@@ -9,6 +9,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <cerrno>
 #include <cstdio>
 #include <cstring>
@@ -373,8 +374,10 @@ void run_eval(const ExperimentConfig& config, const EvalOptions& o) {
       const auto policies = rq1_policies(c, method_info(name).ensemble ? c.method.members : 1, demos,
                                          o.out + "/rq1_policies/seed" + std::to_string(s), fmt::format("[seed {}] RQ1", s));
       const auto t = std::chrono::steady_clock::now();
-      fmt::print(stderr, "[seed {}] RQ1 {:8} setting {} threshold{} over the training pairs...\n", s, name, 1 + m->compare_rules().size(),
-                 m->compare_rules().empty() ? "" : "s");
+      // Diff's compared rules have thresholds of their own; Thrifty's halves share its threshold and gamma.
+      const size_t thresholds = 1 + (method_info(name).learns_risk ? 0 : m->compare_rules().size());
+      fmt::print(stderr, "[seed {}] RQ1 {:8} setting {} threshold{} over the training pairs...\n", s, name, thresholds,
+                 thresholds > 1 ? "s" : "");
       {
         ProgressBar bar(fmt::format("[seed {}] RQ1 {:8} scoring training pairs", s, name), "loss");
         m->adopt(policies, demos, {}, bar.fn());
@@ -411,6 +414,7 @@ void run_eval(const ExperimentConfig& config, const EvalOptions& o) {
     nlohmann::json j = prediction_json(failure_prediction(results));
     j["success"] = success_rate(results);
     j["risk_data_s"] = risk_data_s;
+    if (std::isfinite(m->threshold())) j["threshold"] = m->threshold();  // the rule's, as the rollouts saw it
     // method.compare_scores: the other rules' verdicts on these very rollouts
     const std::vector<std::string> rules = m->compare_rules();
     for (size_t i = 0; i < rules.size(); ++i) j["compare"][rules[i]] = prediction_json(failure_prediction(results, i));
@@ -486,7 +490,7 @@ void run_eval(const ExperimentConfig& config, const EvalOptions& o) {
                    j.at("fp").get<int>(), j.at("tn").get<int>(), j.at("fn").get<int>(), j.at("success").get<double>());
         if (j.contains("compare"))
           for (const auto& [rule, p] : j["compare"].items())
-            fmt::print("[seed {}] RQ1 {:8}   scored {:10} TP {} FP {} TN {} FN {}\n", s, name, rule, p.at("tp").get<int>(),
+            fmt::print("[seed {}] RQ1 {:8}   by {:13} TP {} FP {} TN {} FN {}\n", s, name, rule, p.at("tp").get<int>(),
                        p.at("fp").get<int>(), p.at("tn").get<int>(), p.at("fn").get<int>());
       }
     fmt::print("RQ1 cells in {}/cells; run without --only-rq1 for RQ2, RQ3 and the report\n", o.out);

@@ -4,6 +4,7 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 
@@ -66,7 +67,9 @@ std::vector<std::pair<std::string, const EvalRow*>> rq1_rows(const std::string& 
 
 std::string rq1_title(const std::string& name, const std::string& row_name) {
   const size_t at = row_name.find('@');
-  return at == std::string::npos ? method_title(name) : fmt::format("{}, scored {}", method_title(name), row_name.substr(at + 1));
+  if (at == std::string::npos) return method_title(name);
+  // Thrifty's compared rules are its own rule's halves; diff's are other ways to score its loss
+  return fmt::format(name == "thrifty" ? "{}, {} alone" : "{}, scored {}", method_title(name), row_name.substr(at + 1));
 }
 
 }  // namespace
@@ -225,6 +228,10 @@ void write_eval_report(const ExperimentConfig& config, const EvalOptions& o, con
                         p_value(fisher_exact_p(r.tp, r.fp, r.fn, r.tn)), pm(r.rq1_success),
                         seed_list(r.rq1_seeds));
     }
+  if (std::find(o.methods.begin(), o.methods.end(), "thrifty") != o.methods.end())
+    md += "\nRows \"novelty alone\" and \"risk alone\" judge Thrifty-DAgger's rollouts by one half of its rule (the "
+          "ensemble's spread above its threshold; the critic's success estimate below gamma), K in a row, so that they show "
+          "which half asked; cells run before the halves were recorded count in the rule's row only.\n";
   if (!config.method.compare_scores.empty())
     md += fmt::format("\nRows \"scored R\" judge the same rollouts by another gate rule (method.compare_scores; R is the score space, "
                       "and @K keeps the diffusion timesteps below K), each with its own alpha-quantile threshold over the same "
