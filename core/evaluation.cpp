@@ -30,6 +30,7 @@ std::vector<RolloutResult> rollouts_here(Env& env, Method& method, int episodes,
     gate.reset();
     for (QueryGate& g : compare_gates) g.reset();
     r.compare_queried.assign(n_compare, 0);
+    r.compare_first_query_step.assign(n_compare, -1);
     bool done = false;
     uint64_t decision = 0;
     Mat chunk;
@@ -50,7 +51,10 @@ std::vector<RolloutResult> rollouts_here(Env& env, Method& method, int episodes,
           throw Error(method.name() + ": a decision judged " + std::to_string(d.compare_violations.size()) + " compared rules, not " +
                       std::to_string(n_compare));
         for (size_t i = 0; i < n_compare; ++i)
-          if (compare_gates[i].record(d.compare_violations[i]).query) r.compare_queried[i] = 1;
+          if (compare_gates[i].record(d.compare_violations[i]).query && !r.compare_queried[i]) {
+            r.compare_queried[i] = 1;
+            r.compare_first_query_step[i] = env.steps();
+          }
         if (need_chunk) {
           chunk = d.chunk;
           pos = 0;
@@ -130,7 +134,8 @@ std::string rollout_to_json(const RolloutResult& r) {
                         {"steps", r.steps},
                         {"decisions", r.decisions},
                         {"inference_s", r.inference_s},
-                        {"compare_queried", r.compare_queried}}
+                        {"compare_queried", r.compare_queried},
+                        {"compare_first_query_step", r.compare_first_query_step}}
       .dump();
 }
 
@@ -146,6 +151,8 @@ RolloutResult rollout_from_json(const std::string& line) {
     r.decisions = j.at("decisions").get<int>();
     r.inference_s = j.at("inference_s").get<double>();
     r.compare_queried = j.at("compare_queried").get<std::vector<uint8_t>>();
+    // rollouts written before 2026-12-07 (binaries before 53d0ee5's successor) have no such field
+    if (j.contains("compare_first_query_step")) r.compare_first_query_step = j.at("compare_first_query_step").get<std::vector<int>>();
     return r;
   } catch (const nlohmann::json::exception& e) {
     throw Error(std::string("not a rollout (") + e.what() + ")");

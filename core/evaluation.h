@@ -19,6 +19,7 @@ struct RolloutResult {
   bool queried = false;       // the rule would have asked (K violations in a row) at some point
   int first_query_step = -1;  // env step of the first would-be query
   std::vector<uint8_t> compare_queried;  // per Method::compare_rules(): that rule would have asked
+  std::vector<int> compare_first_query_step;  // and the env step it would first have asked at (-1: never)
   std::string outcome;        // Env::outcome() at the end
   int steps = 0;
   int decisions = 0;

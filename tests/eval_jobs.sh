@@ -130,4 +130,12 @@ fi
 grep -q "cells failed" "$dir/fail.log" && grep -q "logs/bc_seed0_rq2.log" "$dir/fail.log" ||
   { echo "FAIL: the failed cells and their logs are not named"; cat "$dir/fail.log"; exit 1; }
 [[ -f $dir/two/cells/thrifty_seed0_rq2.json ]] || { echo "FAIL: a finished cell was lost"; exit 1; }
-echo "eval --jobs: same RQ1 and RQ2 as one process, logs per cell, failures named; a stopped RQ1 cell continues to the same numbers; compared rules reach the report"
+# Ensemble-DAgger's rule is Thrifty-DAgger's novelty half: Thrifty's RQ1 cell writes Ensemble's too,
+# and --jobs starts no process of its own for it
+"$bin" --threads 2 eval --task nav2d --config "$dir/tiny.yaml" --episodes 4 --methods ensemble,thrifty --jobs 2 --only-rq1 \
+  --out "$dir/ens" > "$dir/ens.log" 2>&1 || { cat "$dir/ens.log"; exit 1; }
+grep -q '"from": "thrifty:0:rq1"' "$dir/ens/cells/ensemble_seed0_rq1.json" ||
+  { echo "FAIL: no Ensemble-DAgger cell from Thrifty-DAgger's"; ls "$dir/ens/cells"; exit 1; }
+[[ ! -e $dir/ens/logs/ensemble_seed0_rq1.log ]] || { echo "FAIL: --jobs ran Ensemble-DAgger's RQ1 cell as well"; exit 1; }
+grep -q "RQ1 ensemble TP" "$dir/ens.log" || { echo "FAIL: --only-rq1 did not print Ensemble-DAgger's numbers"; cat "$dir/ens.log"; exit 1; }
+echo "eval --jobs: same RQ1 and RQ2 as one process, logs per cell, failures named; a stopped RQ1 cell continues to the same numbers; compared rules reach the report; Thrifty-DAgger's RQ1 cell gives Ensemble-DAgger's"

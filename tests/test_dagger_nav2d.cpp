@@ -701,6 +701,58 @@ TEST(DaggerNav2d, AStoppedEvaluationRerunsOnlyTheUnfinishedCells) {
   fs::remove_all(fresh);
 }
 
+// Ensemble-DAgger's rule is Thrifty-DAgger's novelty half (the same members, threshold, acting member
+// and rollout seeds), so Thrifty's RQ1 cell also writes Ensemble-DAgger's: it must be the cell that
+// Ensemble-DAgger's own run gives, rollout by rollout.
+TEST(DaggerNav2d, ThriftysRq1CellGivesTheEnsembleCellItsOwnRunGives) {
+  ExperimentConfig c = quick_config();
+  EvalOptions e;
+  e.apply_quick(c);
+  e.episodes = 4;
+  e.methods = {"ensemble", "thrifty"};
+  c.method.members = 2;
+  c.method.alpha = 0.5;  // a low threshold, so that the rule asks in some rollouts
+  c.train.batch_size = 32;
+  c.train.steps = 30;
+  c.method.critic.steps = 50;
+  EvalOptions own = e, given = e;
+  own.cell = "ensemble:0:rq1";
+  own.out = temp_dir("eval_ensemble_own");
+  given.cell = "thrifty:0:rq1";
+  given.out = temp_dir("eval_ensemble_given");
+  run_eval(c, own);
+  run_eval(c, given);
+  const auto cell = [](const std::string& dir) { return nlohmann::json::parse(read_text(dir + "/cells/ensemble_seed0_rq1.json")); };
+  const nlohmann::json a = cell(own.out), b = cell(given.out);
+  for (const char* k : {"tp", "fp", "tn", "fn", "success", "threshold"}) EXPECT_EQ(a.at(k), b.at(k)) << k;
+  EXPECT_FALSE(a.contains("from"));
+  EXPECT_EQ(b.at("from"), "thrifty:0:rq1");
+  const auto rollouts = [](const std::string& dir) {
+    std::vector<RolloutResult> out;
+    std::istringstream lines(read_text(dir + "/cells/ensemble_seed0_rq1_rollouts.jsonl"));
+    for (std::string line; std::getline(lines, line);) out.push_back(rollout_from_json(line));
+    return out;
+  };
+  const auto ra = rollouts(own.out), rb = rollouts(given.out);
+  ASSERT_EQ(ra.size(), 4u);
+  ASSERT_EQ(rb.size(), ra.size());
+  int asked = 0;
+  for (size_t i = 0; i < ra.size(); ++i) {
+    EXPECT_EQ(ra[i].success, rb[i].success) << i;
+    EXPECT_EQ(ra[i].queried, rb[i].queried) << i;
+    EXPECT_EQ(ra[i].first_query_step, rb[i].first_query_step) << i;
+    EXPECT_EQ(ra[i].steps, rb[i].steps) << i;
+    EXPECT_EQ(ra[i].decisions, rb[i].decisions) << i;
+    asked += ra[i].queried;
+  }
+  EXPECT_GT(asked, 0) << "the comparison never saw a query";
+  // Thrifty's own cell counts its whole rule, which asks wherever its novelty half does
+  const nlohmann::json t = nlohmann::json::parse(read_text(given.out + "/cells/thrifty_seed0_rq1.json"));
+  EXPECT_GE(t.at("tp").get<int>() + t.at("fp").get<int>(), b.at("tp").get<int>() + b.at("fp").get<int>());
+  fs::remove_all(own.out);
+  fs::remove_all(given.out);
+}
+
 // A quick `train` run on the toy: `steps` steps at batch 32 on 3 demonstrations, 3 rollouts at every
 // curve point (`eval_every` steps) and at the end.
 struct QuickTrain {

@@ -338,9 +338,21 @@ void run_eval(const ExperimentConfig& config, const EvalOptions& o) {
     }
     return j;
   };
+  auto cell_file_of = [&](const std::string& name, int s, bool rq1) { return o.out + "/cells/" + EvalCell{name, s, rq1}.stem() + ".json"; };
+  std::set<std::string> ran_here;  // cells finished by this run (in this process or its children)
   auto save_cell = [&](const std::string& path, nlohmann::json j) {
     j["episodes"] = o.episodes;
     write_text(path, j.dump(2) + "\n");
+    ran_here.insert(path);
+  };
+  auto has_method = [&](const std::string& m) { return std::find(o.methods.begin(), o.methods.end(), m) != o.methods.end(); };
+  // Ensemble-DAgger's rule is Thrifty-DAgger's novelty half: the seed's one RQ1 ensemble, the same
+  // threshold (EnsembleMethod::set_threshold, same seed, same pairs), the same acting member and
+  // rollout seeds. So Thrifty's RQ1 cell also gives Ensemble-DAgger's, and a seed that needs both
+  // runs Thrifty's alone: one pass of five-member sampling, not two.
+  auto thrifty_gives_ensemble = [&](int s) {
+    return has_method("ensemble") && has_method("thrifty") && !fs::exists(cell_file_of("ensemble", s, true)) &&
+           !fs::exists(cell_file_of("thrifty", s, true));
   };
 
   // One seed's config and rollout seeds.
@@ -350,7 +362,7 @@ void run_eval(const ExperimentConfig& config, const EvalOptions& o) {
     return c;
   };
   auto eval_seed_of = [](int s) { return 900000 + 1000 * static_cast<uint64_t>(s); };
-  auto cell_file = [&](const std::string& name, int s, bool rq1) { return o.out + "/cells/" + EvalCell{name, s, rq1}.stem() + ".json"; };
+  auto cell_file = cell_file_of;
 
   // RQ1: a policy trained on N_D demonstrations, rolled out without intervention.
   auto run_rq1_cell = [&](const std::string& name, int s) {
@@ -426,6 +438,31 @@ void run_eval(const ExperimentConfig& config, const EvalOptions& o) {
     write_text(o.out + "/cells/" + EvalCell{name, s, true}.stem() + "_rollouts.jsonl", lines);
     save_cell(cell_file(name, s, true), j);
     fs::remove_all(partial);
+    const auto novelty = std::find(rules.begin(), rules.end(), "novelty");
+    const size_t n = static_cast<size_t>(novelty - rules.begin());
+    const bool halves_recorded = std::all_of(results.begin(), results.end(), [&](const RolloutResult& r) {
+      return r.compare_queried.size() == rules.size() && r.compare_first_query_step.size() == rules.size();
+    });
+    if (name == "thrifty" && has_method("ensemble") && novelty != rules.end() && halves_recorded &&
+        !fs::exists(cell_file("ensemble", s, true))) {
+      std::vector<RolloutResult> ensemble = results;
+      std::string ensemble_lines;
+      for (RolloutResult& r : ensemble) {
+        r.queried = r.compare_queried[n];
+        r.first_query_step = r.compare_first_query_step[n];
+        r.compare_queried.clear();
+        r.compare_first_query_step.clear();
+        ensemble_lines += rollout_to_json(r) + "\n";
+      }
+      nlohmann::json e = prediction_json(failure_prediction(ensemble));
+      e["success"] = success_rate(ensemble);
+      e["risk_data_s"] = 0.0;
+      if (j.contains("threshold")) e["threshold"] = j["threshold"];
+      e["from"] = EvalCell{name, s, true}.id();  // its rollouts, judged by the novelty half alone
+      write_text(o.out + "/cells/" + EvalCell{"ensemble", s, true}.stem() + "_rollouts.jsonl", ensemble_lines);
+      save_cell(cell_file("ensemble", s, true), e);
+      fmt::print(stderr, "[seed {}] RQ1 ensemble written from {}'s novelty half\n", s, EvalCell{name, s, true}.id());
+    }
   };
   // RQ2 and RQ3: interactive learning to N_f, then rollouts of the final policy.
   auto run_rq2_cell = [&](const std::string& name, int s) {
@@ -476,12 +513,15 @@ void run_eval(const ExperimentConfig& config, const EvalOptions& o) {
   if (o.only_rq1) {
     std::vector<EvalCell> todo;
     for (const EvalCell& cell : eval_cells(o.methods, o.seeds))
-      if (cell.rq1 && !fs::exists(cell_file(cell.method, cell.seed, true))) todo.push_back(cell);
+      if (cell.rq1 && !fs::exists(cell_file(cell.method, cell.seed, true)) && !(cell.method == "ensemble" && thrifty_gives_ensemble(cell.seed)))
+        todo.push_back(cell);
     if (o.jobs > 1) {
       run_cells_in_processes(todo, o.jobs, o.out + "/logs");
     } else {
       for (const EvalCell& cell : todo) run_rq1_cell(cell.method, cell.seed);
     }
+    for (int s = 0; s < o.seeds; ++s)  // an Ensemble-DAgger cell Thrifty-DAgger's did not give (halves not recorded)
+      if (has_method("ensemble") && !fs::exists(cell_file("ensemble", s, true))) run_rq1_cell("ensemble", s);
     for (int s = 0; s < o.seeds; ++s)
       for (const std::string& name : o.methods) {
         if (!method_info(name).gated) continue;
@@ -498,13 +538,13 @@ void run_eval(const ExperimentConfig& config, const EvalOptions& o) {
   }
 
   // --jobs N: the unfinished cells, the longest first, N at a time, each in a process of its own.
-  std::set<std::string> ran_here;  // cells finished by this run's child processes
   if (o.jobs > 1 && !o.report_only) {
     std::vector<EvalCell> todo;
     for (const EvalCell& cell : eval_cells(o.methods, o.seeds)) {
       const std::string file = cell_file(cell.method, cell.seed, cell.rq1);
       if (fs::exists(file)) continue;
-      todo.push_back(cell);
+      if (cell.rq1 && cell.method == "thrifty" && thrifty_gives_ensemble(cell.seed)) ran_here.insert(cell_file("ensemble", cell.seed, true));
+      if (!(cell.rq1 && cell.method == "ensemble" && thrifty_gives_ensemble(cell.seed))) todo.push_back(cell);
       ran_here.insert(file);
     }
     run_cells_in_processes(todo, o.jobs, o.out + "/logs");
@@ -531,7 +571,10 @@ void run_eval(const ExperimentConfig& config, const EvalOptions& o) {
     for (const std::string& name : o.methods) {
       EvalRow& row = rows[name];
       if (method_info(name).gated)
-        if (const auto j = cell_numbers({name, s, true}, [&] { run_rq1_cell(name, s); })) {
+        if (const auto j = cell_numbers({name, s, true}, [&] {
+              if (name == "ensemble" && thrifty_gives_ensemble(s)) run_rq1_cell("thrifty", s);
+              if (!fs::exists(cell_file(name, s, true))) run_rq1_cell(name, s);  // not given (halves not recorded)
+            })) {
           row.add_rq1(*j, (*j)["success"].get<double>(), s);
           if (method_info(name).learns_risk) row.risk_data.push_back((*j)["risk_data_s"].get<double>());
         }
