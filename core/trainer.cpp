@@ -259,23 +259,37 @@ float Trainer::step() {
     put(L.obs, o);
     put(L.target, target);
     std::memcpy(shared + L.params, s.flat.data_ptr<float>(), s.flat.nbytes());
-    s.worker->start();
+    // The child may be found gone when it is asked (it died between steps) or when it is waited for:
+    // either way this step's second half is done here, and every later step in this process alone.
+    auto without_child = [&](const Error& e) {
+      spdlog::warn("{}; training goes on in this process alone", e.what());
+      s.worker.reset();
+    };
+    bool asked = true;
+    try {
+      s.worker->start();
+    } catch (const Error& e) {
+      without_child(e);
+      asked = false;
+    }
     s.flat_grad.zero_();
     {
       OneThread one;  // the child works on the other core
       l = s.half_loss(x.narrow(0, 0, h), t.narrow(0, 0, h), o.narrow(0, 0, h), target.narrow(0, 0, h), elements);
     }
-    try {
-      s.worker->wait();
-      torch::NoGradGuard no_grad;
-      s.flat_grad.add_(torch::from_blob(shared + L.grad, {s.flat_grad.numel()}));
-      l += static_cast<float>(*reinterpret_cast<const double*>(shared + L.loss));
-    } catch (const Error& e) {
-      // the child is gone: this step's second half here, and every later step in this process alone
-      spdlog::warn("{}; training goes on in this process alone", e.what());
-      s.worker.reset();
-      l += s.half_loss(x.narrow(0, h, rows), t.narrow(0, h, rows), o.narrow(0, h, rows), target.narrow(0, h, rows), elements);
+    bool answered = false;
+    if (asked) {
+      try {
+        s.worker->wait();
+        torch::NoGradGuard no_grad;
+        s.flat_grad.add_(torch::from_blob(shared + L.grad, {s.flat_grad.numel()}));
+        l += static_cast<float>(*reinterpret_cast<const double*>(shared + L.loss));
+        answered = true;
+      } catch (const Error& e) {
+        without_child(e);
+      }
     }
+    if (!answered) l += s.half_loss(x.narrow(0, h, rows), t.narrow(0, h, rows), o.narrow(0, h, rows), target.narrow(0, h, rows), elements);
   }
   const torch::Tensor loss = split ? torch::Tensor() : torch::mse_loss(impl.model->forward(impl.scheduler.add_noise(x0, eps, t), t, o),
                                                                           impl.scheduler.target(x0, eps, t));

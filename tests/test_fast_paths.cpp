@@ -4,8 +4,11 @@
 #include <gtest/gtest.h>
 #include <signal.h>
 
+#include <chrono>
 #include <filesystem>
-
+#include <fstream>
+#include <string>
+#include <thread>
 
 #include "core/chunks.h"
 #include "core/ensemble.h"
@@ -357,6 +360,17 @@ TEST(FastPaths, FusedOptimizerTrainsLikeTorchsAdamW) {
 // With 2 threads a training step splits its minibatch with a forked child, one thread each: the same
 // losses and weights as one process, up to float rounding; and when the child dies, training goes
 // on in this process alone, still the same.
+// A killed child is dead, its socket closed, once /proc says it is a zombie (not yet reaped).
+static bool wait_until_dead(pid_t pid) {
+  for (int i = 0; i < 500; ++i) {
+    std::ifstream stat("/proc/" + std::to_string(pid) + "/stat");
+    std::string pid_field, comm, state;
+    if (!(stat >> pid_field >> comm >> state) || state == "Z" || state == "X") return true;
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+  return false;
+}
+
 TEST(FastPaths, DataParallelTrainingMatchesOneProcess) {
   const int threads = num_threads();
   set_num_threads(2);
@@ -368,7 +382,9 @@ TEST(FastPaths, DataParallelTrainingMatchesOneProcess) {
   t.warmup_steps = 5;
   std::vector<std::vector<float>> losses;
   std::vector<Mat> samples;
-  for (const int variant : {0, 1, 2}) {  // one process, two, two with the child killed at step 10
+  // one process; two; two with the child killed at step 10 (it dies while the step asks it or waits
+  // for it); and killed and gone before step 10 asks it (the ask itself fails)
+  for (const int variant : {0, 1, 2, 3}) {
     set_data_parallel(variant > 0);
     DiffusionPolicy policy(c, 3, false);
     {
@@ -377,8 +393,10 @@ TEST(FastPaths, DataParallelTrainingMatchesOneProcess) {
       else ASSERT_GT(trainer.worker_pid(), 0) << "no child process at 2 threads";
       losses.emplace_back();
       for (int i = 0; i < t.steps; ++i) {
-        if (variant == 2 && i == 10) {
-          ::kill(trainer.worker_pid(), SIGKILL);
+        if (variant >= 2 && i == 10) {
+          const pid_t child = trainer.worker_pid();
+          ::kill(child, SIGKILL);
+          if (variant == 3) ASSERT_TRUE(wait_until_dead(child)) << "the killed child did not die";
           losses.back().push_back(trainer.step());
           EXPECT_EQ(trainer.worker_pid(), -1) << "the dead child is still counted on";
           continue;
