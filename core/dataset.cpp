@@ -18,6 +18,14 @@ namespace {
 
 namespace fs = std::filesystem;
 
+// HDF5 1.10.8 closes every file still open when the process exits, and crashes (SIGSEGV in
+// H5F__close_cb) on a file whose close failed, as a close does when the disk is full: `collect` wrote
+// its clear error and then died of the signal. Every file here is closed by its H5 owner, and one
+// whose close failed is a temporary already removed, so the library's exit handler has nothing to
+// save: it is not installed. This must precede every other HDF5 call, so it runs at load time (this
+// file is the only one that calls HDF5).
+[[maybe_unused]] const herr_t kNoHdf5ExitHandler = H5dont_atexit();
+
 // Owns an HDF5 id and closes it with the matching function.
 class H5 {
  public:

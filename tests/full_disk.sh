@@ -39,6 +39,7 @@ rc=$?
 msg=$(grep '\[E\]' <<<"$out" | tail -1)
 echo "collect exited with $rc: $msg"
 (( rc != 0 )) || fail "collect filled the disk and still exited 0"
+(( rc < 128 )) || fail "collect died of signal $((rc - 128)) after its error (exit $rc)"
 [[ $msg == *"$file"* ]] || fail "the error does not name the file"
 [[ $msg == *"disk holding it is full"* ]] || fail "the error does not say the disk is full"
 [[ ! -e $file.partial ]] || fail "a partial file was left behind"
