@@ -58,6 +58,20 @@ ExperimentConfig quick_config() {
   return c;
 }
 
+// The smallest evaluation that exercises every code path: 4 rollouts a measurement, ensembles of 2,
+// 30 steps at batch 32 (plumbing only); `c` is set to match.
+EvalOptions tiny_eval(ExperimentConfig& c) {
+  c = quick_config();
+  EvalOptions e;
+  e.apply_quick(c);
+  e.episodes = 4;
+  c.method.members = 2;
+  c.train.batch_size = 32;
+  c.train.steps = 30;
+  c.method.critic.steps = 50;
+  return e;
+}
+
 }  // namespace
 
 // Reports quote spread over a handful of seeds, so it is the sample standard deviation (n - 1).
@@ -333,15 +347,8 @@ TEST(DaggerNav2d, StoredConfigsFromOlderBuildsStillMatch) {
 }
 
 TEST(DaggerNav2d, QuickEvaluationWritesEveryFile) {
-  ExperimentConfig c = quick_config();
-  EvalOptions e;
-  e.apply_quick(c);
-  e.episodes = 4;
-  // Plumbing only: the smallest ensembles and batches that exercise every code path.
-  c.method.members = 2;
-  c.train.batch_size = 32;
-  c.train.steps = 30;
-  c.method.critic.steps = 50;
+  ExperimentConfig c;
+  EvalOptions e = tiny_eval(c);
   e.out = temp_dir("eval");
   run_eval(c, e);
   for (const char* f : {"report.md", "rq1.csv", "rq2.csv", "rq3.csv", "rq1_failure_prediction.png", "rq2_success.png", "rq3_wallclock.png"})
@@ -617,14 +624,9 @@ TEST(DaggerNav2d, EvalCellsCoverEveryMethodAndSeedLongestFirst) {
 }
 
 TEST(DaggerNav2d, AStoppedEvaluationRerunsOnlyTheUnfinishedCells) {
-  ExperimentConfig c = quick_config();
-  EvalOptions e;
-  e.apply_quick(c);
-  e.episodes = 4;
+  ExperimentConfig c;
+  EvalOptions e = tiny_eval(c);
   e.methods = {"diff", "bc"};
-  c.method.members = 2;
-  c.train.batch_size = 32;
-  c.train.steps = 30;
   e.out = temp_dir("eval_cells");
   run_eval(c, e);
   const auto text = [](const std::string& path) {
@@ -705,16 +707,10 @@ TEST(DaggerNav2d, AStoppedEvaluationRerunsOnlyTheUnfinishedCells) {
 // and rollout seeds), so Thrifty's RQ1 cell also writes Ensemble-DAgger's: it must be the cell that
 // Ensemble-DAgger's own run gives, rollout by rollout.
 TEST(DaggerNav2d, ThriftysRq1CellGivesTheEnsembleCellItsOwnRunGives) {
-  ExperimentConfig c = quick_config();
-  EvalOptions e;
-  e.apply_quick(c);
-  e.episodes = 4;
+  ExperimentConfig c;
+  EvalOptions e = tiny_eval(c);
   e.methods = {"ensemble", "thrifty"};
-  c.method.members = 2;
   c.method.alpha = 0.5;  // a low threshold, so that the rule asks in some rollouts
-  c.train.batch_size = 32;
-  c.train.steps = 30;
-  c.method.critic.steps = 50;
   EvalOptions own = e, given = e;
   own.cell = "ensemble:0:rq1";
   own.out = temp_dir("eval_ensemble_own");
