@@ -151,7 +151,7 @@ RolloutResult rollout_from_json(const std::string& line) {
     r.decisions = j.at("decisions").get<int>();
     r.inference_s = j.at("inference_s").get<double>();
     r.compare_queried = j.at("compare_queried").get<std::vector<uint8_t>>();
-    // rollouts written before 2026-12-07 (binaries before 53d0ee5's successor) have no such field
+    // rollouts written before 2026-12-07 (binaries before d53fc0d) have no such field
     if (j.contains("compare_first_query_step")) r.compare_first_query_step = j.at("compare_first_query_step").get<std::vector<int>>();
     return r;
   } catch (const nlohmann::json::exception& e) {

@@ -301,6 +301,7 @@ class ThriftyMethod : public EnsembleMethod {
 
   // The rule's two halves, each judged alone on the same decisions: which of them asks.
   std::vector<std::string> compare_rules() const override { return {"novelty", "risk"}; }
+  float risk_threshold() const override { return updates_ > 0 ? gamma_ : NAN; }
 
   MethodDecision decide(const Vec& obs, uint64_t seed) override {
     MethodDecision m = EnsembleMethod::decide(obs, seed);

@@ -11,6 +11,7 @@
 #pragma once
 
 #include <array>
+#include <cmath>
 #include <cstdint>
 #include <memory>
 #include <string>
@@ -126,6 +127,9 @@ class Method {
   virtual MethodDecision decide(const Vec& obs, uint64_t seed) = 0;
   /// The current threshold (after the first update).
   virtual float threshold() const = 0;
+  /// Thrifty's gamma: the risk half asks where the critic's success estimate is below it (NaN for
+  /// the methods without a critic, and before Thrifty's first update or adopt()).
+  virtual float risk_threshold() const { return NAN; }
   /// Writes the method's policy checkpoints into `dir` (policy.pt, or member_<i>.pt for ensembles).
   virtual void save(const std::string& dir) const = 0;
   /// Writes into `dir` (created if needed) everything continuing needs: the policies as save() writes

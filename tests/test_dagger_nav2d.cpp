@@ -745,6 +745,11 @@ TEST(DaggerNav2d, ThriftysRq1CellGivesTheEnsembleCellItsOwnRunGives) {
   // Thrifty's own cell counts its whole rule, which asks wherever its novelty half does
   const nlohmann::json t = nlohmann::json::parse(read_text(given.out + "/cells/thrifty_seed0_rq1.json"));
   EXPECT_GE(t.at("tp").get<int>() + t.at("fp").get<int>(), b.at("tp").get<int>() + b.at("fp").get<int>());
+  // the cell records both thresholds its rule used: the spread's and the critic's gamma
+  EXPECT_EQ(t.at("threshold"), b.at("threshold"));
+  EXPECT_TRUE(t.contains("risk_threshold"));
+  EXPECT_FALSE(a.contains("risk_threshold"));
+  EXPECT_FALSE(b.contains("risk_threshold"));
   fs::remove_all(own.out);
   fs::remove_all(given.out);
 }

@@ -623,7 +623,10 @@ TEST(Methods, ThriftyJudgesEachHalfOfItsRuleAlone) {
   mc.alpha = 0.3;  // a low threshold: some decisions along the data are novel, some not
   auto m = make_method("thrifty", fakes::tiny_policy(), mc, 1);
   EXPECT_EQ(m->compare_rules(), (std::vector<std::string>{"novelty", "risk"}));
+  EXPECT_TRUE(std::isnan(m->risk_threshold())) << "gamma before the critic has trained";
+  EXPECT_TRUE(std::isnan(make_method("ensemble", fakes::tiny_policy(), mc, 1)->risk_threshold()));
   m->update(episodes, failing_robot_data(episodes), short_training());
+  ASSERT_TRUE(std::isfinite(m->risk_threshold()));
   int novel = 0, asked = 0;
   for (uint64_t i = 0; i < 24; ++i) {
     const Vec obs = episodes[i % episodes.size()].obs.row(static_cast<Eigen::Index>(i % 10)).transpose();
@@ -632,6 +635,7 @@ TEST(Methods, ThriftyJudgesEachHalfOfItsRuleAlone) {
     ASSERT_EQ(d.compare_scores.size(), 2u);
     const bool novelty = d.compare_violations[0], risk = d.compare_violations[1];
     EXPECT_EQ(novelty, violates(d.score, d.threshold));
+    EXPECT_EQ(risk, violates(-d.risk_q, -m->risk_threshold())) << "the risk half asks below gamma";
     EXPECT_FLOAT_EQ(d.compare_scores[0], d.score);
     EXPECT_FLOAT_EQ(d.compare_scores[1], d.risk_q);
     EXPECT_EQ(d.violation, novelty || risk);

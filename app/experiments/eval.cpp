@@ -338,7 +338,7 @@ void run_eval(const ExperimentConfig& config, const EvalOptions& o) {
     }
     return j;
   };
-  auto cell_file_of = [&](const std::string& name, int s, bool rq1) { return o.out + "/cells/" + EvalCell{name, s, rq1}.stem() + ".json"; };
+  auto cell_file = [&](const std::string& name, int s, bool rq1) { return o.out + "/cells/" + EvalCell{name, s, rq1}.stem() + ".json"; };
   std::set<std::string> ran_here;  // cells finished by this run (in this process or its children)
   auto save_cell = [&](const std::string& path, nlohmann::json j) {
     j["episodes"] = o.episodes;
@@ -351,8 +351,8 @@ void run_eval(const ExperimentConfig& config, const EvalOptions& o) {
   // rollout seeds. So Thrifty's RQ1 cell also gives Ensemble-DAgger's, and a seed that needs both
   // runs Thrifty's alone: one pass of five-member sampling, not two.
   auto thrifty_gives_ensemble = [&](int s) {
-    return has_method("ensemble") && has_method("thrifty") && !fs::exists(cell_file_of("ensemble", s, true)) &&
-           !fs::exists(cell_file_of("thrifty", s, true));
+    return has_method("ensemble") && has_method("thrifty") && !fs::exists(cell_file("ensemble", s, true)) &&
+           !fs::exists(cell_file("thrifty", s, true));
   };
 
   // One seed's config and rollout seeds.
@@ -362,7 +362,6 @@ void run_eval(const ExperimentConfig& config, const EvalOptions& o) {
     return c;
   };
   auto eval_seed_of = [](int s) { return 900000 + 1000 * static_cast<uint64_t>(s); };
-  auto cell_file = cell_file_of;
 
   // RQ1: a policy trained on N_D demonstrations, rolled out without intervention.
   auto run_rq1_cell = [&](const std::string& name, int s) {
@@ -427,6 +426,7 @@ void run_eval(const ExperimentConfig& config, const EvalOptions& o) {
     j["success"] = success_rate(results);
     j["risk_data_s"] = risk_data_s;
     if (std::isfinite(m->threshold())) j["threshold"] = m->threshold();  // the rule's, as the rollouts saw it
+    if (std::isfinite(m->risk_threshold())) j["risk_threshold"] = m->risk_threshold();  // Thrifty's gamma
     // method.compare_scores: the other rules' verdicts on these very rollouts
     const std::vector<std::string> rules = m->compare_rules();
     for (size_t i = 0; i < rules.size(); ++i) j["compare"][rules[i]] = prediction_json(failure_prediction(results, i));
