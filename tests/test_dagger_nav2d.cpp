@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -33,20 +34,28 @@ std::string temp_dir(const std::string& name) {
   return p.string();
 }
 
-// A CSV file's rows as header name -> field (the experiments' CSVs have no quoted fields).
+// A CSV file's rows as header name -> field (a field in double quotes may hold commas: an outcome
+// such as "turned, off in position"; the experiments write no quote inside one).
 std::vector<std::map<std::string, std::string>> read_csv(const std::string& path) {
+  auto fields = [](const std::string& line) {
+    std::vector<std::string> out(1);
+    bool quoted = false;
+    for (char ch : line) {
+      if (ch == '"') quoted = !quoted;
+      else if (ch == ',' && !quoted) out.emplace_back();
+      else out.back() += ch;
+    }
+    return out;
+  };
   std::ifstream in(path);
   std::string line;
-  std::vector<std::string> names;
   std::getline(in, line);
-  std::istringstream h(line);
-  for (std::string x; std::getline(h, x, ',');) names.push_back(x);
+  const std::vector<std::string> names = fields(line);
   std::vector<std::map<std::string, std::string>> rows;
   while (std::getline(in, line)) {
-    std::istringstream r(line);
+    const std::vector<std::string> f = fields(line);
     auto& row = rows.emplace_back();
-    for (size_t i = 0; i < names.size() && std::getline(r, row[names[i]], ','); ++i) {
-    }
+    for (size_t i = 0; i < names.size() && i < f.size(); ++i) row[names[i]] = f[i];
   }
   return rows;
 }
@@ -374,6 +383,30 @@ TEST(DaggerNav2d, QuickEvaluationWritesEveryFile) {
     const double p = fisher_exact_p(std::stol(f["tp"]), std::stol(f["fp"]), std::stol(f["fn"]), std::stol(f["tn"]));
     EXPECT_NEAR(std::stod(f["fisher_p"]), p, 0.006 * p + 1e-12) << f["method"];  // printed to 3 significant figures
     asked[f["method"]] = std::stol(f["tp"]) + std::stol(f["fp"]);
+  }
+  // rq1_seeds.csv: each seed's cell, summing to rq1.csv's counts; the rules' thresholds as the rollouts saw them
+  std::map<std::string, std::array<long, 4>> by_seed;
+  for (auto& f : read_csv(e.out + "/rq1_seeds.csv")) {
+    auto& n = by_seed[f["method"]];
+    n[0] += std::stol(f["tp"]), n[1] += std::stol(f["fp"]), n[2] += std::stol(f["tn"]), n[3] += std::stol(f["fn"]);
+    const bool own_rule = f["method"].find('@') == std::string::npos;
+    EXPECT_EQ(std::isfinite(std::stod(f["threshold"])), own_rule) << f["method"];
+    EXPECT_EQ(std::isfinite(std::stod(f["risk_threshold"])), f["method"] == "thrifty") << f["method"];
+  }
+  // rq1_outcomes.csv: the rollouts behind those counts, by how they ended
+  std::map<std::string, long> rollouts_of, asked_in, failed_and_asked;
+  for (auto& f : read_csv(e.out + "/rq1_outcomes.csv")) {
+    rollouts_of[f["method"]] += std::stol(f["rollouts"]);
+    asked_in[f["method"]] += std::stol(f["asked"]);
+    if (f["success"] == "0") failed_and_asked[f["method"]] += std::stol(f["asked"]);
+    EXPECT_LE(std::stol(f["asked"]), std::stol(f["rollouts"]));
+  }
+  for (auto& f : read_csv(e.out + "/rq1.csv")) {
+    const std::string m = f["method"];
+    EXPECT_EQ(by_seed[m], (std::array<long, 4>{std::stol(f["tp"]), std::stol(f["fp"]), std::stol(f["tn"]), std::stol(f["fn"])})) << m;
+    EXPECT_EQ(rollouts_of[m], static_cast<long>(e.seeds) * e.episodes) << m;
+    EXPECT_EQ(asked_in[m], asked[m]) << m;
+    EXPECT_EQ(failed_and_asked[m], std::stol(f["tp"])) << m;
   }
   // Thrifty's halves on its own rollouts: K violations in a row of either are K of the rule
   ASSERT_TRUE(asked.count("thrifty@novelty") && asked.count("thrifty@risk"));

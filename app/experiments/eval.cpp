@@ -430,6 +430,7 @@ void run_eval(const ExperimentConfig& config, const EvalOptions& o) {
     // method.compare_scores: the other rules' verdicts on these very rollouts
     const std::vector<std::string> rules = m->compare_rules();
     for (size_t i = 0; i < rules.size(); ++i) j["compare"][rules[i]] = prediction_json(failure_prediction(results, i));
+    if (!rules.empty()) j["compare_rules"] = rules;  // their order in each rollout's compare_queried
     // Behind the counts, one line a rollout (success, outcome, steps, whether and at which step the
     // rule would have asked, the compared rules' verdicts), kept beside the cell: written before it,
     // so a finished cell always has them
@@ -576,6 +577,16 @@ void run_eval(const ExperimentConfig& config, const EvalOptions& o) {
               if (!fs::exists(cell_file(name, s, true))) run_rq1_cell(name, s);  // not given (halves not recorded)
             })) {
           row.add_rq1(*j, (*j)["success"].get<double>(), s);
+          // the rollouts behind the counts, for the report's tables of how they ended; a file that
+          // cannot be read or is not this cell's costs those tables, not the report
+          const std::string rollouts_file = o.out + "/cells/" + EvalCell{name, s, true}.stem() + "_rollouts.jsonl";
+          try {
+            if (fs::exists(rollouts_file) && !row.add_rq1_rollouts(*j, read_rollouts(rollouts_file), s))
+              fmt::print(stderr, "warning: {}: its counts are not those of {}; left out of the report's tables by outcome\n", rollouts_file,
+                         cell_file(name, s, true));
+          } catch (const Error& e) {
+            fmt::print(stderr, "warning: {}; left out of the report's tables by outcome\n", e.what());
+          }
           if (method_info(name).learns_risk) row.risk_data.push_back((*j)["risk_data_s"].get<double>());
         }
       if (const auto j = cell_numbers({name, s, false}, [&] { run_rq2_cell(name, s); })) row.add_rq2(*j, s);

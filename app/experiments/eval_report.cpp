@@ -72,6 +72,53 @@ std::string rq1_title(const std::string& name, const std::string& row_name) {
   return fmt::format(name == "thrifty" ? "{}, {} alone" : "{}, scored {}", method_title(name), row_name.substr(at + 1));
 }
 
+// A rate, or "n/a" where undefined; a threshold, or "-" where the cell has none.
+std::string rate_text(double v) { return std::isfinite(v) ? fmt::format("{:.2f}", v) : "n/a"; }
+std::string threshold_text(double v) { return std::isfinite(v) ? fmt::format("{:.4g}", v) : "-"; }
+
+// The rollouts of a row's seeds grouped by how they ended (Env::outcome()): successes first, then the
+// most frequent; where the rule asked, and at which step it first asked.
+struct OutcomeRow {
+  std::string outcome;
+  bool success = false;
+  int rollouts = 0, asked = 0;
+  std::vector<int> first_query_steps;  // of the asked rollouts whose step is recorded
+};
+std::vector<OutcomeRow> outcome_rows(const EvalRow& row) {
+  std::map<std::pair<bool, std::string>, OutcomeRow> by;
+  for (const auto& [seed, rollouts] : row.rq1_rollouts)
+    for (const RolloutResult& r : rollouts) {
+      const std::string outcome = !r.outcome.empty() ? r.outcome : r.success ? "success" : "failure";
+      OutcomeRow& o = by[{r.success, outcome}];
+      o.outcome = outcome, o.success = r.success;
+      ++o.rollouts;
+      if (r.queried) {
+        ++o.asked;
+        if (r.first_query_step >= 0) o.first_query_steps.push_back(r.first_query_step);
+      }
+    }
+  std::vector<OutcomeRow> out;
+  for (auto& [key, o] : by) out.push_back(std::move(o));
+  std::stable_sort(out.begin(), out.end(), [](const OutcomeRow& a, const OutcomeRow& b) {
+    return a.success != b.success ? a.success : a.rollouts > b.rollouts;
+  });
+  return out;
+}
+
+// The median of the steps, NaN for none.
+double median(std::vector<int> v) {
+  if (v.empty()) return NAN;
+  std::sort(v.begin(), v.end());
+  const size_t n = v.size();
+  return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
+}
+
+std::string seed_keys(const std::map<int, std::vector<RolloutResult>>& m) {
+  std::vector<int> seeds;
+  for (const auto& [s, r] : m) seeds.push_back(s);
+  return seed_list(seeds);
+}
+
 }  // namespace
 
 void EvalRow::add_rq1(const nlohmann::json& cell, double rollout_success, int seed) {
@@ -83,8 +130,43 @@ void EvalRow::add_rq1(const nlohmann::json& cell, double rollout_success, int se
   tp += cell.at("tp").get<int>(), fp += cell.at("fp").get<int>(), tn += cell.at("tn").get<int>(), fn += cell.at("fn").get<int>();
   rq1_success.push_back(rollout_success);
   rq1_seeds.push_back(seed);
+  auto number = [&](const char* k) { return cell.contains(k) && cell.at(k).is_number() ? cell.at(k).get<double>() : NAN; };
+  Rq1Seed r;
+  r.seed = seed;
+  r.tp = cell.at("tp").get<int>(), r.fp = cell.at("fp").get<int>(), r.tn = cell.at("tn").get<int>(), r.fn = cell.at("fn").get<int>();
+  r.tpr = tpr.back(), r.tnr = tnr.back(), r.f1 = f1.back(), r.acc = acc.back(), r.success = rollout_success;
+  r.threshold = number("threshold"), r.risk_threshold = number("risk_threshold");
+  rq1_by_seed.push_back(r);
   if (cell.contains("compare"))  // method.compare_scores: the other rules judged on the same rollouts
     for (const auto& [rule, p] : cell["compare"].items()) compared[rule].add_rq1(p, rollout_success, seed);
+}
+
+bool EvalRow::add_rq1_rollouts(const nlohmann::json& cell, const std::vector<RolloutResult>& rollouts, int seed) {
+  auto same_counts = [](const FailurePrediction& p, const nlohmann::json& c) {
+    return p.tp == c.at("tp").get<int>() && p.fp == c.at("fp").get<int>() && p.tn == c.at("tn").get<int>() && p.fn == c.at("fn").get<int>();
+  };
+  if (rollouts.empty() || !same_counts(failure_prediction(rollouts), cell)) return false;
+  rq1_rollouts[seed] = rollouts;
+  if (!cell.contains("compare")) return true;
+  std::vector<std::string> names;  // in the order of each rollout's compare_queried
+  if (cell.contains("compare_rules"))
+    names = cell.at("compare_rules").get<std::vector<std::string>>();
+  else
+    for (const auto& [rule, p] : cell.at("compare").items()) names.push_back(rule);  // JSON's order: checked by the counts below
+  const bool recorded = std::all_of(rollouts.begin(), rollouts.end(), [&](const RolloutResult& r) { return r.compare_queried.size() == names.size(); });
+  for (size_t i = 0; recorded && i < names.size(); ++i) {
+    if (!cell.at("compare").contains(names[i]) || !compared.count(names[i])) continue;
+    if (!same_counts(failure_prediction(rollouts, i), cell.at("compare").at(names[i]))) continue;
+    std::vector<RolloutResult> judged = rollouts;
+    for (RolloutResult& r : judged) {
+      r.queried = r.compare_queried[i];
+      r.first_query_step = i < r.compare_first_query_step.size() ? r.compare_first_query_step[i] : -1;
+      r.compare_queried.clear();
+      r.compare_first_query_step.clear();
+    }
+    compared[names[i]].rq1_rollouts[seed] = std::move(judged);
+  }
+  return true;
 }
 
 void EvalRow::add_rq2(const nlohmann::json& cell, int seed) {
@@ -129,6 +211,22 @@ void write_eval_report(const ExperimentConfig& config, const EvalOptions& o, con
                        csv_num(mean_std(r.train).second), csv_num(mean_std(r.threshold).second), csv_num(mean_std(r.inference).second),
                        r.train.size());
   }
+  // Each seed's cell, and the rollouts behind the counts by how they ended.
+  std::string rq1_seeds = "method,seed,success_rate,tpr,tnr,f1,acc,tp,fp,tn,fn,fisher_p,threshold,risk_threshold\n";
+  std::string rq1_outcomes = "method,outcome,success,rollouts,asked,median_first_query_step,seeds\n";
+  for (const std::string& name : o.methods)
+    for (const auto& [row_name, rp] : rq1_rows(name, rows.at(name))) {
+      for (const EvalRow::Rq1Seed& c : rp->rq1_by_seed)
+        rq1_seeds += fmt::format("{},{},{:.3f},{},{},{},{},{},{},{},{},{:.3g},{},{}\n", row_name, c.seed, c.success, csv_num(c.tpr), csv_num(c.tnr),
+                                 csv_num(c.f1), csv_num(c.acc), c.tp, c.fp, c.tn, c.fn, fisher_exact_p(c.tp, c.fp, c.fn, c.tn),
+                                 std::isfinite(c.threshold) ? fmt::format("{:.6g}", c.threshold) : "nan",
+                                 std::isfinite(c.risk_threshold) ? fmt::format("{:.6g}", c.risk_threshold) : "nan");
+      for (const OutcomeRow& r : outcome_rows(*rp))
+        rq1_outcomes += fmt::format("{},\"{}\",{},{},{},{},{}\n", row_name, r.outcome, r.success ? 1 : 0, r.rollouts, r.asked,
+                                    csv_num(median(r.first_query_steps)), rp->rq1_rollouts.size());
+    }
+  write_text(o.out + "/rq1_seeds.csv", rq1_seeds);
+  write_text(o.out + "/rq1_outcomes.csv", rq1_outcomes);
   write_text(o.out + "/rq1.csv", rq1);
   write_text(o.out + "/rq2.csv", rq2);
   write_text(o.out + "/rq3.csv", rq3);
@@ -237,6 +335,38 @@ void write_eval_report(const ExperimentConfig& config, const EvalOptions& o, con
                       "and @K keeps the diffusion timesteps below K), each with its own alpha-quantile threshold over the same "
                       "training pairs; the method acted on its main rule (score space {}).\n",
                       config.method.score_space);
+  {
+    std::string lines;
+    for (const std::string& name : o.methods)
+      for (const auto& [row_name, rp] : rq1_rows(name, rows.at(name)))
+        for (const EvalRow::Rq1Seed& c : rp->rq1_by_seed)
+          lines += fmt::format("| {} | {} | {:.2f} | {} | {} | {} | {} | {} / {} / {} / {} | {} | {} | {} |\n", rq1_title(name, row_name), c.seed,
+                               c.success, rate_text(c.tpr), rate_text(c.tnr), rate_text(c.f1), rate_text(c.acc), c.tp, c.fp, c.tn, c.fn,
+                               p_value(fisher_exact_p(c.tp, c.fp, c.fn, c.tn)), threshold_text(c.threshold), threshold_text(c.risk_threshold));
+    if (!lines.empty())
+      md += "\n### Table I by seed\n\nEach seed's cell (`rq1_seeds.csv`), p its own Fisher test. Threshold: the rule's, as the "
+            "rollouts saw it (the loss quantile for Diff-DAgger, the spread's for the ensembles); gamma: Thrifty-DAgger's risk "
+            "threshold on the critic's success estimate; - where the cell did not record it.\n\n"
+            "| Method | seed | rollout success | TPR | TNR | F1 | Acc | TP / FP / TN / FN | p | threshold | gamma |\n"
+            "|---|---|---|---|---|---|---|---|---|---|---|\n" + lines;
+  }
+  {
+    std::string lines;
+    for (const std::string& name : o.methods)
+      for (const auto& [row_name, rp] : rq1_rows(name, rows.at(name)))
+        for (const OutcomeRow& r : outcome_rows(*rp)) {
+          const double m = median(r.first_query_steps);
+          lines += fmt::format("| {} | {}{} | {} | {} | {} | {} |\n", rq1_title(name, row_name), r.outcome, r.success && r.outcome != "success" ? " (success)" : "",
+                               r.rollouts, r.asked, std::isfinite(m) ? fmt::format("{:g}", m) : "-", seed_keys(rp->rq1_rollouts));
+        }
+    if (!lines.empty())
+      md += "\n### How the rollouts ended, and where each rule asked\n\nFrom the rollouts behind the counts "
+            "(`cells/METHOD_seedS_rq1_rollouts.jsonl`, where a cell has them; `rq1_outcomes.csv`), summed over the seeds named: "
+            "how many rollouts ended each way, in how many the rule asked, and the median environment step of its first "
+            "query there (- where it never asked, or the file did not record the step).\n\n"
+            "| Method | how the rollout ended | rollouts | the rule asked | first query, median step | seeds |\n"
+            "|---|---|---|---|---|---|\n" + lines;
+  }
   md += fmt::format("\n## Table II: task performance (RQ2)\n\nSuccess rate of the final policy after interactive learning to N_f = {} "
                     "expert demonstrations (successful ones: an episode the expert failed is recorded but not trained on). {}\n\n"
                     "| Task | Method | Success rate | per seed |\n|---|---|---|---|\n",

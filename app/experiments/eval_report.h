@@ -2,6 +2,7 @@
 // files made from them (rq1.csv, rq2.csv, rq3.csv, the three plots, report.md).
 #pragma once
 
+#include <cmath>
 #include <map>
 #include <string>
 #include <vector>
@@ -9,6 +10,7 @@
 #include <nlohmann/json.hpp>
 
 #include "app/experiments.h"
+#include "core/evaluation.h"
 
 namespace dd::app {
 
@@ -22,10 +24,27 @@ struct EvalRow {
   /// Diff-DAgger's further gate rules (method.compare_scores), judged on the same rollouts: their
   /// RQ1 numbers, by rule.
   std::map<std::string, EvalRow> compared;
+  /// Each seed's RQ1 cell as it is (report.md's table by seed, rq1_seeds.csv); thresholds NaN where
+  /// the cell has none (a compared rule's entry; Thrifty-DAgger's gamma before cells recorded it).
+  struct Rq1Seed {
+    int seed = 0;
+    int tp = 0, fp = 0, tn = 0, fn = 0;
+    double tpr = NAN, tnr = NAN, f1 = NAN, acc = NAN, success = NAN, threshold = NAN, risk_threshold = NAN;
+  };
+  std::vector<Rq1Seed> rq1_by_seed;
+  /// The rollouts behind each seed's counts (cells/STEM_rollouts.jsonl), where on hand, each judged
+  /// by this row's rule (a compared rule's row: its own verdicts and first query steps, the latter
+  /// -1 where older files did not record them).
+  std::map<int, std::vector<RolloutResult>> rq1_rollouts;
 
   /// One seed's RQ1 numbers from its cell (or a compared rule's entry in it); undefined rates are
   /// null there and NaN here.
   void add_rq1(const nlohmann::json& cell, double rollout_success, int seed);
+  /// The rollouts of the seed's cell (added with add_rq1 before): kept where the main rule's counts
+  /// from them are the cell's; each compared rule gets its verdicts where its counts also agree
+  /// (rules named by the cell's "compare_rules", else its "compare" keys in order). Returns false,
+  /// keeping nothing, where the rollouts are not the cell's.
+  bool add_rq1_rollouts(const nlohmann::json& cell, const std::vector<RolloutResult>& rollouts, int seed);
   /// One seed's RQ2 and RQ3 numbers from its cell.
   void add_rq2(const nlohmann::json& cell, int seed);
 };
