@@ -171,7 +171,7 @@ EvalCell parse_eval_cell(const std::string& id, const std::vector<std::string>& 
 /// `eval --jobs`.
 void set_command_line(int argc, char** argv);
 
-/// Writes report.md, rq1.csv, rq2.csv, rq3.csv and the PNG plots to options.out.
+/// Writes report.md, rq1.csv (and rq1_seeds.csv, rq1_outcomes.csv), rq2.csv, rq3.csv and the PNG plots to options.out.
 void run_eval(const ExperimentConfig& config, const EvalOptions& options);
 
 }  // namespace dd::app

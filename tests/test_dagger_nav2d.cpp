@@ -104,6 +104,22 @@ TEST(Report, FisherExactTestOfAskingAgainstFailing) {
   EXPECT_THROW(fisher_exact_p(-1, 0, 0, 0), Error);
 }
 
+TEST(Report, MantelHaenszelTestOfAskingAgainstFailingWithinSeeds) {
+  // a perfect rule on one seed: (|10 - 5| - 0.5)^2 / (10^4 / (20^2 * 19)) = 15.39, P(chi2_1 > 15.39)
+  EXPECT_NEAR(mantel_haenszel_p({{10, 0, 0, 10}}), 8.745e-5, 1e-8);
+  // Simpson: on each seed the rule asks as often in successes as in failures (90% and 10%), but one
+  // seed's policy fails 90% of the time and the other's 10%: summed, asking goes with failing
+  EXPECT_LT(fisher_exact_p(82, 18, 18, 82), 1e-15);
+  EXPECT_NEAR(mantel_haenszel_p({{81, 9, 9, 1}, {1, 9, 9, 81}}), 1.0, 1e-9);
+  // the same association on three seeds is firmer than on any one of them
+  const AskFailTable seed{12, 4, 6, 10};
+  EXPECT_LT(mantel_haenszel_p({seed, seed, seed}), mantel_haenszel_p({seed}) / 10);
+  EXPECT_NEAR(mantel_haenszel_p({{23, 18, 31, 28}, {14, 13, 40, 33}, {18, 6, 50, 26}}), 0.7064, 1e-4);  // push_1expert, Diff-DAgger
+  EXPECT_DOUBLE_EQ(mantel_haenszel_p({{0, 0, 5, 5}, {0, 0, 3, 7}}), 1.0);  // never asks
+  EXPECT_DOUBLE_EQ(mantel_haenszel_p({}), 1.0);
+  EXPECT_THROW(mantel_haenszel_p({{-1, 0, 0, 0}}), Error);
+}
+
 TEST(DaggerNav2d, DiffDaggerIsNoWorseThanBcWithTheSameExpertBudget) {
   const ExperimentConfig c = quick_config();
   auto env = make_env(c.task);
@@ -401,8 +417,13 @@ TEST(DaggerNav2d, QuickEvaluationWritesEveryFile) {
     if (f["success"] == "0") failed_and_asked[f["method"]] += std::stol(f["asked"]);
     EXPECT_LE(std::stol(f["asked"]), std::stol(f["rollouts"]));
   }
+  std::map<std::string, std::vector<AskFailTable>> strata;
+  for (auto& f : read_csv(e.out + "/rq1_seeds.csv"))
+    strata[f["method"]].push_back({std::stol(f["tp"]), std::stol(f["fp"]), std::stol(f["fn"]), std::stol(f["tn"])});
   for (auto& f : read_csv(e.out + "/rq1.csv")) {
     const std::string m = f["method"];
+    const double within = mantel_haenszel_p(strata[m]);
+    EXPECT_NEAR(std::stod(f["cmh_p"]), within, 0.006 * within + 1e-12) << m;
     EXPECT_EQ(by_seed[m], (std::array<long, 4>{std::stol(f["tp"]), std::stol(f["fp"]), std::stol(f["tn"]), std::stol(f["fn"])})) << m;
     EXPECT_EQ(rollouts_of[m], static_cast<long>(e.seeds) * e.episodes) << m;
     EXPECT_EQ(asked_in[m], asked[m]) << m;

@@ -57,6 +57,13 @@ std::string total(std::initializer_list<double> parts) {
 }
 
 // Table I's and rq1.csv's rows of a method: its own rule, then the rules it was compared with.
+// The Mantel-Haenszel p of a row's seeds, each seed's counts a stratum.
+double within_seeds_p(const EvalRow& r) {
+  std::vector<AskFailTable> strata;
+  for (const EvalRow::Rq1Seed& c : r.rq1_by_seed) strata.push_back({c.tp, c.fp, c.fn, c.tn});
+  return mantel_haenszel_p(strata);
+}
+
 std::vector<std::pair<std::string, const EvalRow*>> rq1_rows(const std::string& name, const EvalRow& row) {
   std::vector<std::pair<std::string, const EvalRow*>> out;
   if (row.tpr.empty()) return out;
@@ -186,7 +193,7 @@ void write_eval_report(const ExperimentConfig& config, const EvalOptions& o, con
   const bool bc_scaled = !config.train.from_scratch;
   // CSV files: the columns the issue names first, spreads and counts after them. "nan": undefined
   // (TPR with no failed rollout, TNR with no successful one).
-  std::string rq1 = "method,tpr,tnr,f1,acc,tpr_std,tnr_std,f1_std,acc_std,tp,fp,tn,fn,success_rate,seeds,episodes,fisher_p\n";
+  std::string rq1 = "method,tpr,tnr,f1,acc,tpr_std,tnr_std,f1_std,acc_std,tp,fp,tn,fn,success_rate,seeds,episodes,fisher_p,cmh_p\n";
   std::string rq2 = "method,success_rate,n,success_rate_std,seeds\n";
   std::string rq3 =
       "method,train_s,threshold_s,inference_s,total_s,last_train_s,last_threshold_s,last_inference_s,last_total_s,risk_data_s,"
@@ -194,11 +201,11 @@ void write_eval_report(const ExperimentConfig& config, const EvalOptions& o, con
   for (const std::string& name : o.methods) {
     for (const auto& [row_name, rp] : rq1_rows(name, rows.at(name))) {
       const EvalRow& r = *rp;
-      rq1 += fmt::format("{},{},{},{},{},{},{},{},{},{},{},{},{},{:.3f},{},{},{:.3g}\n", row_name, csv_num(finite_mean_std(r.tpr).first),
+      rq1 += fmt::format("{},{},{},{},{},{},{},{},{},{},{},{},{},{:.3f},{},{},{:.3g},{:.3g}\n", row_name, csv_num(finite_mean_std(r.tpr).first),
                          csv_num(finite_mean_std(r.tnr).first), csv_num(finite_mean_std(r.f1).first), csv_num(finite_mean_std(r.acc).first),
                          csv_num(finite_mean_std(r.tpr).second), csv_num(finite_mean_std(r.tnr).second),
                          csv_num(finite_mean_std(r.f1).second), csv_num(finite_mean_std(r.acc).second), r.tp, r.fp, r.tn, r.fn,
-                         mean(r.rq1_success), r.rq1_seeds.size(), o.episodes, fisher_exact_p(r.tp, r.fp, r.fn, r.tn));
+                         mean(r.rq1_success), r.rq1_seeds.size(), o.episodes, fisher_exact_p(r.tp, r.fp, r.fn, r.tn), within_seeds_p(r));
     }
     const EvalRow& r = rows.at(name);
     rq2 += fmt::format("{},{},{},{},{}\n", name, csv_num(mean_std(r.success).first), o.episodes * r.success.size(),
@@ -310,20 +317,22 @@ void write_eval_report(const ExperimentConfig& config, const EvalOptions& o, con
                     "Positive = the rule would have asked; actual positive = the episode failed. TP, FP, TN, FN are summed over seeds; "
                     "n/a: undefined (no failed rollout for TPR, no successful one for TNR). p: two-sided Fisher exact test of asking "
                     "against failing on the counts (summed over seeds; no test of direction, so read it beside TPR and 1 - TNR): "
-                    "small where the rule's positives go with failures more than chance would have it. Ensemble-DAgger and Thrifty-DAgger act with "
+                    "small where the rule's positives go with failures more than chance would have it. p within seeds: the Cochran-Mantel-Haenszel "
+                    "test of the same with each seed a stratum, which summing cannot fool (seeds whose policies fail at different rates "
+                    "can make an association in the sums that no seed has). Ensemble-DAgger and Thrifty-DAgger act with "
                     "the member trained on all the demonstrations; the other members are bootstrapped. The three methods' policies are "
                     "one ensemble per seed, trained once: Diff-DAgger's is its member 0, the very policy its own update would train "
                     "(same initial weights, data and minibatches), so the methods differ only in the query rule.\n\n"
-                    "| Task | N_D | Method | TPR | TNR | F1 | Acc | TP | FP | TN | FN | p | rollout success | which seeds |\n"
-                    "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n",
+                    "| Task | N_D | Method | TPR | TNR | F1 | Acc | TP | FP | TN | FN | p | p within seeds | rollout success | which seeds |\n"
+                    "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n",
                     config.rq1_demos,
                     config.train.from_scratch ? "the epoch rule" : fmt::format("{} steps", rq1_training(config).steps));
   for (const std::string& name : o.methods)
     for (const auto& [row_name, rp] : rq1_rows(name, rows.at(name))) {
       const EvalRow& r = *rp;
-      md += fmt::format("| {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} |\n", config.task, config.rq1_demos,
+      md += fmt::format("| {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} |\n", config.task, config.rq1_demos,
                         rq1_title(name, row_name), pm(r.tpr), pm(r.tnr), pm(r.f1), pm(r.acc), r.tp, r.fp, r.tn, r.fn,
-                        p_value(fisher_exact_p(r.tp, r.fp, r.fn, r.tn)), pm(r.rq1_success),
+                        p_value(fisher_exact_p(r.tp, r.fp, r.fn, r.tn)), p_value(within_seeds_p(r)), pm(r.rq1_success),
                         seed_list(r.rq1_seeds));
     }
   if (std::find(o.methods.begin(), o.methods.end(), "thrifty") != o.methods.end())

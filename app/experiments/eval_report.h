@@ -1,5 +1,5 @@
 // The evaluation's report, internal to app/experiments/: its numbers per method over seeds, and the
-// files made from them (rq1.csv, rq2.csv, rq3.csv, the three plots, report.md).
+// files made from them (rq1.csv, rq1_seeds.csv, rq1_outcomes.csv, rq2.csv, rq3.csv, the three plots, report.md).
 #pragma once
 
 #include <cmath>

@@ -75,6 +75,23 @@ double fisher_exact_p(long asked_failed, long asked_succeeded, long quiet_failed
   return std::min(1.0, p);
 }
 
+double mantel_haenszel_p(const std::vector<AskFailTable>& strata) {
+  double deviation = 0, variance = 0;
+  for (const AskFailTable& t : strata) {
+    if (std::min({t.asked_failed, t.asked_succeeded, t.quiet_failed, t.quiet_succeeded}) < 0)
+      throw Error("mantel_haenszel_p: a negative count");
+    const double asked = t.asked_failed + t.asked_succeeded, quiet = t.quiet_failed + t.quiet_succeeded;
+    const double failed = t.asked_failed + t.quiet_failed, succeeded = t.asked_succeeded + t.quiet_succeeded;
+    const double n = asked + quiet;
+    if (n < 2) continue;
+    deviation += t.asked_failed - asked * failed / n;  // observed minus expected with the margins fixed
+    variance += asked * quiet * failed * succeeded / (n * n * (n - 1));
+  }
+  if (!(variance > 0)) return 1.0;
+  const double corrected = std::max(0.0, std::abs(deviation) - 0.5);
+  return std::erfc(std::sqrt(corrected * corrected / variance / 2));  // P(chi-square_1 > statistic)
+}
+
 std::vector<Episode> collect_demos(const std::string& task, const std::string& mode, int n, uint64_t seed) {
   auto env = make_env(task);
   auto expert = make_expert(task, mode);
