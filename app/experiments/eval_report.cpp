@@ -56,6 +56,7 @@ std::string total(std::initializer_list<double> parts) {
   return std::isfinite(t) ? fmt::format("{:.2f}", t) : "n/a";
 }
 
+// Table I's and rq1.csv's rows of a method: its own rule, then the rules it was compared with.
 // The Mantel-Haenszel p of a row's seeds, each seed's counts a stratum.
 double within_seeds_p(const EvalRow& r) {
   std::vector<AskFailTable> strata;
@@ -63,7 +64,6 @@ double within_seeds_p(const EvalRow& r) {
   return mantel_haenszel_p(strata);
 }
 
-// Table I's and rq1.csv's rows of a method: its own rule, then the rules it was compared with.
 std::vector<std::pair<std::string, const EvalRow*>> rq1_rows(const std::string& name, const EvalRow& row) {
   std::vector<std::pair<std::string, const EvalRow*>> out;
   if (row.tpr.empty()) return out;
