@@ -339,6 +339,8 @@ void run_eval(const ExperimentConfig& config, const EvalOptions& o) {
     return j;
   };
   auto cell_file = [&](const std::string& name, int s, bool rq1) { return o.out + "/cells/" + EvalCell{name, s, rq1}.stem() + ".json"; };
+  // An RQ1 cell's rollouts, one JSON line each, beside the cell
+  auto cell_rollouts_file = [&](const std::string& name, int s) { return o.out + "/cells/" + EvalCell{name, s, true}.stem() + "_rollouts.jsonl"; };
   std::set<std::string> ran_here;  // cells finished by this run (in this process or its children)
   auto save_cell = [&](const std::string& path, nlohmann::json j) {
     j["episodes"] = o.episodes;
@@ -436,7 +438,7 @@ void run_eval(const ExperimentConfig& config, const EvalOptions& o) {
     // so a finished cell always has them
     std::string lines;
     for (const RolloutResult& r : results) lines += rollout_to_json(r) + "\n";
-    write_text(o.out + "/cells/" + EvalCell{name, s, true}.stem() + "_rollouts.jsonl", lines);
+    write_text(cell_rollouts_file(name, s), lines);
     save_cell(cell_file(name, s, true), j);
     fs::remove_all(partial);
     const auto novelty = std::find(rules.begin(), rules.end(), "novelty");
@@ -460,7 +462,7 @@ void run_eval(const ExperimentConfig& config, const EvalOptions& o) {
       e["risk_data_s"] = 0.0;
       if (j.contains("threshold")) e["threshold"] = j["threshold"];
       e["from"] = EvalCell{name, s, true}.id();  // its rollouts, judged by the novelty half alone
-      write_text(o.out + "/cells/" + EvalCell{"ensemble", s, true}.stem() + "_rollouts.jsonl", ensemble_lines);
+      write_text(cell_rollouts_file("ensemble", s), ensemble_lines);
       save_cell(cell_file("ensemble", s, true), e);
       fmt::print(stderr, "[seed {}] RQ1 ensemble written from {}'s novelty half\n", s, EvalCell{name, s, true}.id());
     }
@@ -579,10 +581,10 @@ void run_eval(const ExperimentConfig& config, const EvalOptions& o) {
           row.add_rq1(*j, (*j)["success"].get<double>(), s);
           // the rollouts behind the counts, for the report's tables of how they ended; a file that
           // cannot be read or is not this cell's costs those tables, not the report
-          const std::string rollouts_file = o.out + "/cells/" + EvalCell{name, s, true}.stem() + "_rollouts.jsonl";
+          const std::string file = cell_rollouts_file(name, s);
           try {
-            if (fs::exists(rollouts_file) && !row.add_rq1_rollouts(*j, read_rollouts(rollouts_file), s))
-              fmt::print(stderr, "warning: {}: its counts are not those of {}; left out of the report's tables by outcome\n", rollouts_file,
+            if (fs::exists(file) && !row.add_rq1_rollouts(*j, read_rollouts(file), s))
+              fmt::print(stderr, "warning: {}: its counts are not those of {}; left out of the report's tables by outcome\n", file,
                          cell_file(name, s, true));
           } catch (const Error& e) {
             fmt::print(stderr, "warning: {}; left out of the report's tables by outcome\n", e.what());

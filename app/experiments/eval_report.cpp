@@ -56,7 +56,6 @@ std::string total(std::initializer_list<double> parts) {
   return std::isfinite(t) ? fmt::format("{:.2f}", t) : "n/a";
 }
 
-// Table I's and rq1.csv's rows of a method: its own rule, then the rules it was compared with.
 // The Mantel-Haenszel p of a row's seeds, each seed's counts a stratum.
 double within_seeds_p(const EvalRow& r) {
   std::vector<AskFailTable> strata;
@@ -64,9 +63,10 @@ double within_seeds_p(const EvalRow& r) {
   return mantel_haenszel_p(strata);
 }
 
+// Table I's and rq1.csv's rows of a method: its own rule, then the rules it was compared with.
 std::vector<std::pair<std::string, const EvalRow*>> rq1_rows(const std::string& name, const EvalRow& row) {
   std::vector<std::pair<std::string, const EvalRow*>> out;
-  if (row.tpr.empty()) return out;
+  if (row.rq1_by_seed.empty()) return out;
   out.emplace_back(name, &row);
   for (const auto& [rule, r] : row.compared) out.emplace_back(name + "@" + rule, &r);
   return out;
@@ -129,23 +129,34 @@ std::string seed_keys(const std::map<int, std::vector<RolloutResult>>& m) {
 }  // namespace
 
 void EvalRow::add_rq1(const nlohmann::json& cell, double rollout_success, int seed) {
-  auto rate = [&](const char* k) { return cell.at(k).is_number() ? cell.at(k).get<double>() : NAN; };
-  tpr.push_back(rate("tpr"));
-  tnr.push_back(rate("tnr"));
-  f1.push_back(rate("f1"));
-  acc.push_back(rate("acc"));
-  tp += cell.at("tp").get<int>(), fp += cell.at("fp").get<int>(), tn += cell.at("tn").get<int>(), fn += cell.at("fn").get<int>();
-  rq1_success.push_back(rollout_success);
-  rq1_seeds.push_back(seed);
+  auto rate = [&](const char* k) { return cell.at(k).is_number() ? cell.at(k).get<double>() : NAN; };  // undefined: null
   auto number = [&](const char* k) { return cell.contains(k) && cell.at(k).is_number() ? cell.at(k).get<double>() : NAN; };
   Rq1Seed r;
   r.seed = seed;
   r.tp = cell.at("tp").get<int>(), r.fp = cell.at("fp").get<int>(), r.tn = cell.at("tn").get<int>(), r.fn = cell.at("fn").get<int>();
-  r.tpr = tpr.back(), r.tnr = tnr.back(), r.f1 = f1.back(), r.acc = acc.back(), r.success = rollout_success;
+  r.tpr = rate("tpr"), r.tnr = rate("tnr"), r.f1 = rate("f1"), r.acc = rate("acc"), r.success = rollout_success;
   r.threshold = number("threshold"), r.risk_threshold = number("risk_threshold");
   rq1_by_seed.push_back(r);
   if (cell.contains("compare"))  // method.compare_scores: the other rules judged on the same rollouts
     for (const auto& [rule, p] : cell["compare"].items()) compared[rule].add_rq1(p, rollout_success, seed);
+}
+
+std::vector<double> EvalRow::rq1_values(double Rq1Seed::*field) const {
+  std::vector<double> out;
+  for (const Rq1Seed& c : rq1_by_seed) out.push_back(c.*field);
+  return out;
+}
+
+std::vector<int> EvalRow::rq1_seeds() const {
+  std::vector<int> out;
+  for (const Rq1Seed& c : rq1_by_seed) out.push_back(c.seed);
+  return out;
+}
+
+EvalRow::Rq1Seed EvalRow::rq1_summed() const {
+  Rq1Seed sum;
+  for (const Rq1Seed& c : rq1_by_seed) sum.tp += c.tp, sum.fp += c.fp, sum.tn += c.tn, sum.fn += c.fn;
+  return sum;
 }
 
 bool EvalRow::add_rq1_rollouts(const nlohmann::json& cell, const std::vector<RolloutResult>& rollouts, int seed) {
@@ -201,11 +212,13 @@ void write_eval_report(const ExperimentConfig& config, const EvalOptions& o, con
   for (const std::string& name : o.methods) {
     for (const auto& [row_name, rp] : rq1_rows(name, rows.at(name))) {
       const EvalRow& r = *rp;
-      rq1 += fmt::format("{},{},{},{},{},{},{},{},{},{},{},{},{},{:.3f},{},{},{:.3g},{:.3g}\n", row_name, csv_num(finite_mean_std(r.tpr).first),
-                         csv_num(finite_mean_std(r.tnr).first), csv_num(finite_mean_std(r.f1).first), csv_num(finite_mean_std(r.acc).first),
-                         csv_num(finite_mean_std(r.tpr).second), csv_num(finite_mean_std(r.tnr).second),
-                         csv_num(finite_mean_std(r.f1).second), csv_num(finite_mean_std(r.acc).second), r.tp, r.fp, r.tn, r.fn,
-                         mean(r.rq1_success), r.rq1_seeds.size(), o.episodes, fisher_exact_p(r.tp, r.fp, r.fn, r.tn), within_seeds_p(r));
+      const auto tpr = finite_mean_std(r.rq1_values(&EvalRow::Rq1Seed::tpr)), tnr = finite_mean_std(r.rq1_values(&EvalRow::Rq1Seed::tnr)),
+                 f1 = finite_mean_std(r.rq1_values(&EvalRow::Rq1Seed::f1)), acc = finite_mean_std(r.rq1_values(&EvalRow::Rq1Seed::acc));
+      const EvalRow::Rq1Seed c = r.rq1_summed();
+      rq1 += fmt::format("{},{},{},{},{},{},{},{},{},{},{},{},{},{:.3f},{},{},{:.3g},{:.3g}\n", row_name, csv_num(tpr.first), csv_num(tnr.first),
+                         csv_num(f1.first), csv_num(acc.first), csv_num(tpr.second), csv_num(tnr.second), csv_num(f1.second),
+                         csv_num(acc.second), c.tp, c.fp, c.tn, c.fn, mean(r.rq1_values(&EvalRow::Rq1Seed::success)),
+                         r.rq1_by_seed.size(), o.episodes, fisher_exact_p(c.tp, c.fp, c.fn, c.tn), within_seeds_p(r));
     }
     const EvalRow& r = rows.at(name);
     rq2 += fmt::format("{},{},{},{},{}\n", name, csv_num(mean_std(r.success).first), o.episodes * r.success.size(),
@@ -276,12 +289,12 @@ void write_eval_report(const ExperimentConfig& config, const EvalOptions& o, con
     ui::write_png(o.out + "/" + file, ui::hstack(images, caption));
     plots.push_back("`" + file + "`");
   };
-  const auto rq1_n = [](const EvalRow& r) { return r.rq1_seeds.size(); };
+  const auto rq1_n = [](const EvalRow& r) { return r.rq1_by_seed.size(); };
   const auto rq2_n = [](const EvalRow& r) { return r.success.size(); };
   const auto rq3_n = [](const EvalRow& r) { return r.last_train.size(); };
   plot("rq1_failure_prediction.png",
-       {bars("RQ1: F1 of queries vs failures", "F1", [](const EvalRow& r) { return finite_mean_std(r.f1); }, rq1_n, true),
-        bars("RQ1: accuracy", "accuracy", [](const EvalRow& r) { return finite_mean_std(r.acc); }, rq1_n, true)});
+       {bars("RQ1: F1 of queries vs failures", "F1", [](const EvalRow& r) { return finite_mean_std(r.rq1_values(&EvalRow::Rq1Seed::f1)); }, rq1_n, true),
+        bars("RQ1: accuracy", "accuracy", [](const EvalRow& r) { return finite_mean_std(r.rq1_values(&EvalRow::Rq1Seed::acc)); }, rq1_n, true)});
   plot("rq2_success.png", {bars(fmt::format("RQ2: success after N_f = {}", d.final_demos), "success rate",
                                 [](const EvalRow& r) { return mean_std(r.success); }, rq2_n, false)});
   plot("rq3_wallclock.png",
@@ -330,10 +343,13 @@ void write_eval_report(const ExperimentConfig& config, const EvalOptions& o, con
   for (const std::string& name : o.methods)
     for (const auto& [row_name, rp] : rq1_rows(name, rows.at(name))) {
       const EvalRow& r = *rp;
+      const EvalRow::Rq1Seed c = r.rq1_summed();
+      auto values = [&](double EvalRow::Rq1Seed::*field) { return pm(r.rq1_values(field)); };
       md += fmt::format("| {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} |\n", config.task, config.rq1_demos,
-                        rq1_title(name, row_name), pm(r.tpr), pm(r.tnr), pm(r.f1), pm(r.acc), r.tp, r.fp, r.tn, r.fn,
-                        p_value(fisher_exact_p(r.tp, r.fp, r.fn, r.tn)), p_value(within_seeds_p(r)), pm(r.rq1_success),
-                        seed_list(r.rq1_seeds));
+                        rq1_title(name, row_name), values(&EvalRow::Rq1Seed::tpr), values(&EvalRow::Rq1Seed::tnr),
+                        values(&EvalRow::Rq1Seed::f1), values(&EvalRow::Rq1Seed::acc), c.tp, c.fp, c.tn, c.fn,
+                        p_value(fisher_exact_p(c.tp, c.fp, c.fn, c.tn)), p_value(within_seeds_p(r)),
+                        values(&EvalRow::Rq1Seed::success), seed_list(r.rq1_seeds()));
     }
   if (std::find(o.methods.begin(), o.methods.end(), "thrifty") != o.methods.end())
     md += "\nRows \"novelty alone\" and \"risk alone\" judge Thrifty-DAgger's rollouts by one half of its rule (the "

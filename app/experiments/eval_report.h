@@ -16,11 +16,10 @@ namespace dd::app {
 
 /// One method's finished cells, one value per seed.
 struct EvalRow {
-  std::vector<double> tpr, tnr, f1, acc, rq1_success, success;
+  std::vector<double> success;                                     // RQ2, one value per seed
   std::vector<double> train, threshold, inference, risk_data;      // mean over a run's iterations
   std::vector<double> last_train, last_threshold, last_inference;  // the run's final iteration
-  int tp = 0, fp = 0, tn = 0, fn = 0;                              // summed over seeds
-  std::vector<int> rq1_seeds, rq2_seeds;                           // the seeds of the values above
+  std::vector<int> rq2_seeds;                                      // the seeds of the values above
   /// Diff-DAgger's further gate rules (method.compare_scores), judged on the same rollouts: their
   /// RQ1 numbers, by rule.
   std::map<std::string, EvalRow> compared;
@@ -32,6 +31,11 @@ struct EvalRow {
     double tpr = NAN, tnr = NAN, f1 = NAN, acc = NAN, success = NAN, threshold = NAN, risk_threshold = NAN;
   };
   std::vector<Rq1Seed> rq1_by_seed;
+  /// One field of each seed's record (&Rq1Seed::f1, ...), in the order the seeds were added.
+  std::vector<double> rq1_values(double Rq1Seed::*field) const;
+  std::vector<int> rq1_seeds() const;
+  /// The seeds' counts summed; its rates and thresholds are NaN.
+  Rq1Seed rq1_summed() const;
   /// The rollouts behind each seed's counts (cells/STEM_rollouts.jsonl), where on hand, each judged
   /// by this row's rule (a compared rule's row: its own verdicts and first query steps, the latter
   /// -1 where older files did not record them).
