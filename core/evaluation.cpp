@@ -212,10 +212,19 @@ FailurePrediction failure_prediction(const std::vector<RolloutResult>& results) 
 }
 
 FailurePrediction failure_prediction(const std::vector<RolloutResult>& results, size_t rule) {
-  return confusion(results, [&](const RolloutResult& r) {
-    if (rule >= r.compare_queried.size()) throw Error("failure_prediction: no compared rule " + std::to_string(rule) + " in the rollouts");
-    return r.compare_queried[rule] != 0;
-  });
+  return failure_prediction(judged_by(results, rule));
+}
+
+std::vector<RolloutResult> judged_by(const std::vector<RolloutResult>& results, size_t rule) {
+  std::vector<RolloutResult> judged = results;
+  for (RolloutResult& r : judged) {
+    if (rule >= r.compare_queried.size()) throw Error("no compared rule " + std::to_string(rule) + " in the rollouts");
+    r.queried = r.compare_queried[rule] != 0;
+    r.first_query_step = rule < r.compare_first_query_step.size() ? r.compare_first_query_step[rule] : -1;
+    r.compare_queried.clear();
+    r.compare_first_query_step.clear();
+  }
+  return judged;
 }
 
 double success_rate(const std::vector<RolloutResult>& results) {

@@ -73,6 +73,11 @@ FailurePrediction failure_prediction(const std::vector<RolloutResult>& results);
 /// The same for the compared rule `rule` (an index into Method::compare_rules()) on the same rollouts.
 FailurePrediction failure_prediction(const std::vector<RolloutResult>& results, size_t rule);
 
+/// The rollouts as the compared rule `rule` judged them: its verdict and first query step (-1 where
+/// the step was not recorded, in rollouts written before compare_first_query_step) in `queried` and
+/// `first_query_step`, the compared verdicts dropped. Throws Error when a rollout lacks the rule.
+std::vector<RolloutResult> judged_by(const std::vector<RolloutResult>& results, size_t rule);
+
 /// Fraction of successful rollouts.
 double success_rate(const std::vector<RolloutResult>& results);
 

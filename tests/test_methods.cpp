@@ -411,6 +411,30 @@ TEST(Rollouts, ComparedRulesAreJudgedOnTheSameRollouts) {
   EXPECT_EQ(eager.front().compare_queried[0], 1);
 }
 
+TEST(Rollouts, JudgedByAComparedRuleTakesItsVerdictAndStep) {
+  RolloutResult r;
+  r.queried = true;  // the method's own rule asked at step 8
+  r.first_query_step = 8;
+  r.compare_queried = {0, 1};
+  r.compare_first_query_step = {-1, 24};
+  RolloutResult older = r;  // written before the compared rules' steps were recorded
+  older.compare_first_query_step.clear();
+  const auto by_second = judged_by({r, older}, 1);
+  ASSERT_EQ(by_second.size(), 2u);
+  EXPECT_TRUE(by_second[0].queried);
+  EXPECT_EQ(by_second[0].first_query_step, 24);
+  EXPECT_TRUE(by_second[0].compare_queried.empty());
+  EXPECT_TRUE(by_second[0].compare_first_query_step.empty());
+  EXPECT_TRUE(by_second[1].queried);
+  EXPECT_EQ(by_second[1].first_query_step, -1);  // asked, at a step not recorded
+  const auto by_first = judged_by({r}, 0);
+  EXPECT_FALSE(by_first[0].queried);
+  EXPECT_EQ(by_first[0].first_query_step, -1);
+  EXPECT_EQ(failure_prediction({r}, 0).fn, 1);  // a failure the first compared rule did not ask in
+  EXPECT_EQ(failure_prediction({r}, 1).tp, 1);
+  EXPECT_THROW(judged_by({r}, 2), Error);
+}
+
 namespace {
 
 // Acts and judges from the decision's seed alone (as the real methods do): steps of 0.2 to 1.0, a

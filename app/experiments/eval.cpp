@@ -448,15 +448,9 @@ void run_eval(const ExperimentConfig& config, const EvalOptions& o) {
     });
     if (name == "thrifty" && has_method("ensemble") && novelty != rules.end() && halves_recorded &&
         !fs::exists(cell_file("ensemble", s, true))) {
-      std::vector<RolloutResult> ensemble = results;
+      const std::vector<RolloutResult> ensemble = judged_by(results, n);
       std::string ensemble_lines;
-      for (RolloutResult& r : ensemble) {
-        r.queried = r.compare_queried[n];
-        r.first_query_step = r.compare_first_query_step[n];
-        r.compare_queried.clear();
-        r.compare_first_query_step.clear();
-        ensemble_lines += rollout_to_json(r) + "\n";
-      }
+      for (const RolloutResult& r : ensemble) ensemble_lines += rollout_to_json(r) + "\n";
       nlohmann::json e = prediction_json(failure_prediction(ensemble));
       e["success"] = success_rate(ensemble);
       e["risk_data_s"] = 0.0;

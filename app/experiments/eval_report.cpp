@@ -175,14 +175,7 @@ bool EvalRow::add_rq1_rollouts(const nlohmann::json& cell, const std::vector<Rol
   for (size_t i = 0; recorded && i < names.size(); ++i) {
     if (!cell.at("compare").contains(names[i]) || !compared.count(names[i])) continue;
     if (!same_counts(failure_prediction(rollouts, i), cell.at("compare").at(names[i]))) continue;
-    std::vector<RolloutResult> judged = rollouts;
-    for (RolloutResult& r : judged) {
-      r.queried = r.compare_queried[i];
-      r.first_query_step = i < r.compare_first_query_step.size() ? r.compare_first_query_step[i] : -1;
-      r.compare_queried.clear();
-      r.compare_first_query_step.clear();
-    }
-    compared[names[i]].rq1_rollouts[seed] = std::move(judged);
+    compared[names[i]].rq1_rollouts[seed] = judged_by(rollouts, i);
   }
   return true;
 }

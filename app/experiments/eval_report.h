@@ -17,9 +17,10 @@ namespace dd::app {
 /// One method's finished cells, one value per seed.
 struct EvalRow {
   std::vector<double> success;                                     // RQ2, one value per seed
-  std::vector<double> train, threshold, inference, risk_data;      // mean over a run's iterations
+  std::vector<double> train, threshold, inference;                 // mean over a run's iterations
   std::vector<double> last_train, last_threshold, last_inference;  // the run's final iteration
   std::vector<int> rq2_seeds;                                      // the seeds of the values above
+  std::vector<double> risk_data;  // Thrifty's risk data (collection and critic fit), one value per RQ1 cell
   /// Diff-DAgger's further gate rules (method.compare_scores), judged on the same rollouts: their
   /// RQ1 numbers, by rule.
   std::map<std::string, EvalRow> compared;
