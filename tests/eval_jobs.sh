@@ -99,7 +99,7 @@ wait $pid 2>/dev/null || true
 [[ ! -f $dir/stopped/cells/diff_seed0_rq1.json ]] || { echo "FAIL: a stopped cell was written"; exit 1; }
 "$bin" "${cmp_args[@]}" --out "$dir/stopped" > "$dir/resumed.log" 2>&1 || { cat "$dir/resumed.log"; exit 1; }
 grep -q "continues from" "$dir/resumed.log" || { echo "FAIL: the rerun did not continue the stopped cell"; cat "$dir/resumed.log"; exit 1; }
-strip() { grep -v '"episodes"\|risk_data_s' "$1"; }
+strip() { grep -v '"episodes"\|_s"' "$1"; }  # and the seconds: risk_data_s, threshold_s, thresholds_s
 cmp -s <(strip "$dir/whole/cells/diff_seed0_rq1.json") <(strip "$dir/stopped/cells/diff_seed0_rq1.json") ||
   { echo "FAIL: the continued cell differs from the unstopped one"; diff "$dir/whole/cells/diff_seed0_rq1.json" "$dir/stopped/cells/diff_seed0_rq1.json"; exit 1; }
 grep -q '"target@2"' "$dir/whole/cells/diff_seed0_rq1.json" || { echo "FAIL: no compared rule in the cell"; exit 1; }
@@ -117,6 +117,9 @@ for rule, p in cell["compare"].items():
         sys.exit(f"FAIL: rq1.csv's row diff@{rule} is {r}, the cell says {p}")
 if [int(rows["diff"][k]) for k in ("tp", "fp", "tn", "fn")] != [cell[k] for k in ("tp", "fp", "tn", "fn")]:
     sys.exit("FAIL: rq1.csv's diff row is not the cell's main rule")
+# what the threshold pass cost and did, and the thread count, recorded with the cell
+if not (cell["threads"] == 1 and 0 < cell["threshold_refined"] <= cell["threshold_pairs"] and cell["threshold_s"] <= cell["thresholds_s"]):
+    sys.exit(f"FAIL: the cell does not record its threshold pass and thread count: {cell}")
 report = open(d + "/report.md").read()
 if "scored target@2" not in report or "scored epsilon" not in report:
     sys.exit("FAIL: Table I has no rows for the compared rules")

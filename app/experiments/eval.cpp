@@ -344,6 +344,9 @@ void run_eval(const ExperimentConfig& config, const EvalOptions& o) {
   std::set<std::string> ran_here;  // cells finished by this run (in this process or its children)
   auto save_cell = [&](const std::string& path, nlohmann::json j) {
     j["episodes"] = o.episodes;
+    // The writing process's libtorch threads: a cell's seconds are only comparable at the same count
+    // (a cell continued from out/partial may have started under another).
+    j["threads"] = num_threads();
     write_text(path, j.dump(2) + "\n");
     ran_here.insert(path);
   };
@@ -376,10 +379,11 @@ void run_eval(const ExperimentConfig& config, const EvalOptions& o) {
     // method unchanged), so continuing gives the very numbers an unstopped cell would.
     const std::string partial = o.out + "/partial/" + EvalCell{name, s, true}.stem();
     const std::string state_dir = partial + "/method", rollouts_file = partial + "/rollouts.jsonl";
-    double risk_data_s = 0;
+    // What preparing the method cost and set, kept in prepared.json so a continued cell still reports it
+    nlohmann::json prepared{{"risk_data_s", 0.0}};
     if (fs::exists(state_dir + "/method.json")) {
       m->load_state(state_dir);
-      risk_data_s = nlohmann::json::parse(read_text(partial + "/prepared.json")).at("risk_data_s").get<double>();
+      prepared = nlohmann::json::parse(read_text(partial + "/prepared.json"));
       fmt::print(stderr, "[seed {}] RQ1 {:8} continues from {}\n", s, name, partial);
     } else {
       const auto demos = collect_demos(c.task, c.expert, c.rq1_demos, c.dagger.seed);
@@ -391,23 +395,35 @@ void run_eval(const ExperimentConfig& config, const EvalOptions& o) {
       const size_t thresholds = 1 + (method_info(name).learns_risk ? 0 : m->compare_rules().size());
       fmt::print(stderr, "[seed {}] RQ1 {:8} setting {} threshold{} over the training pairs...\n", s, name, thresholds,
                  thresholds > 1 ? "s" : "");
+      UpdateReport adopted;
       {
         ProgressBar bar(fmt::format("[seed {}] RQ1 {:8} scoring training pairs", s, name), "loss");
-        m->adopt(policies, demos, {}, bar.fn());
+        adopted = m->adopt(policies, demos, {}, bar.fn());
       }
-      fmt::print(stderr, "[seed {}] RQ1 {:8} thresholds set in {:.0f} s\n", s, name,
-                 std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count());
+      const double thresholds_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count();
+      fmt::print(stderr, "[seed {}] RQ1 {:8} thresholds set in {:.0f} s\n", s, name, thresholds_s);
+      // The rule's own threshold pass, apart from the compared rules' (thresholds_s holds them all);
+      // Diff-DAgger's screened pass also says how many pairs it scored with every loss sample.
+      prepared["thresholds_s"] = thresholds_s;
+      prepared["threshold_s"] = adopted.threshold_s;
+      if (adopted.threshold_pairs > 0) {
+        prepared["threshold_pairs"] = adopted.threshold_pairs;
+        prepared["threshold_refined"] = adopted.threshold_refined;
+        fmt::print(stderr, "[seed {}] RQ1 {:8} its own threshold: {:.0f} s, {} of {} pairs scored with every loss sample\n", s,
+                   name, adopted.threshold_s, adopted.threshold_refined, adopted.threshold_pairs);
+      }
       if (method_info(name).learns_risk) {
         // The critic learns from robot rollouts too: roll out, then refit the critic alone (the
         // policies keep the budget every method gets). Those rollouts are Thrifty's extra cost.
         std::vector<RecordedEpisode> robot;
         const auto t = std::chrono::steady_clock::now();
         evaluate_rollouts(*env, *m, std::max(5, o.episodes / 5), spec, eval_seed + 500, {}, &robot);
-        risk_data_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count();
+        double risk_data_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count();
         risk_data_s += m->refit_risk(demos, robot);
+        prepared["risk_data_s"] = risk_data_s;
       }
       m->save_state(state_dir);
-      write_text(partial + "/prepared.json", nlohmann::json{{"risk_data_s", risk_data_s}}.dump() + "\n");
+      write_text(partial + "/prepared.json", prepared.dump() + "\n");
       fs::remove(rollouts_file);  // rollouts of a method that was not saved are not these rollouts
     }
     std::vector<RolloutResult> results = read_rollouts(rollouts_file);
@@ -426,7 +442,7 @@ void run_eval(const ExperimentConfig& config, const EvalOptions& o) {
     };
     nlohmann::json j = prediction_json(failure_prediction(results));
     j["success"] = success_rate(results);
-    j["risk_data_s"] = risk_data_s;
+    for (const auto& [key, value] : prepared.items()) j[key] = value;  // risk_data_s, threshold_s, ...
     if (std::isfinite(m->threshold())) j["threshold"] = m->threshold();  // the rule's, as the rollouts saw it
     if (std::isfinite(m->risk_threshold())) j["risk_threshold"] = m->risk_threshold();  // Thrifty's gamma
     // method.compare_scores: the other rules' verdicts on these very rollouts

@@ -174,8 +174,9 @@ bool EvalRow::add_rq1_rollouts(const nlohmann::json& cell, const std::vector<Rol
   const bool recorded = std::all_of(rollouts.begin(), rollouts.end(), [&](const RolloutResult& r) { return r.compare_queried.size() == names.size(); });
   for (size_t i = 0; recorded && i < names.size(); ++i) {
     if (!cell.at("compare").contains(names[i]) || !compared.count(names[i])) continue;
-    if (!same_counts(failure_prediction(rollouts, i), cell.at("compare").at(names[i]))) continue;
-    compared[names[i]].rq1_rollouts[seed] = judged_by(rollouts, i);
+    std::vector<RolloutResult> judged = judged_by(rollouts, i);
+    if (same_counts(failure_prediction(judged), cell.at("compare").at(names[i])))
+      compared[names[i]].rq1_rollouts[seed] = std::move(judged);
   }
   return true;
 }
