@@ -4,6 +4,7 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <map>
@@ -170,6 +171,7 @@ std::vector<std::string> plot_runs(const PlotOptions& o) {
   // Figure 4: mean wall-clock per iteration and its spread over iterations, per method.
   {
     std::string csv = "method,asks,iterations,train_s,train_std,threshold_s,threshold_std,inference_s,inference_std,total_s\n", not_drawn;
+    bool unmeasured = false;  // a run with no finished iteration: its inference and total are "-"
     ui::BarPanel panels[4];
     const char* titles[4] = {"training", "threshold setting", "inference", "total"};
     for (int k = 0; k < 4; ++k) {
@@ -182,10 +184,15 @@ std::vector<std::string> plot_runs(const PlotOptions& o) {
       if (it.train.empty()) continue;  // no update yet
       const auto [tr, tr_sd] = mean_std(it.train);
       const auto [th, th_sd] = mean_std(it.threshold);
-      const auto [in, in_sd] = it.inference.empty() ? std::pair<double, double>{0, 0} : mean_std(it.inference);
+      // A run that asks but has not reached its second update has no iteration's decisions yet: its
+      // inference, and so its total, is not measured (NaN: no bar, an empty CSV field), not 0.
+      const double none = asks(r) ? NAN : 0.0;  // BC decides nothing between updates
+      const auto [in, in_sd] = it.inference.empty() ? std::pair<double, double>{none, none} : mean_std(it.inference);
+      unmeasured = unmeasured || std::isnan(in);
       const double values[4] = {tr, th, in, tr + th + in}, errors[4] = {tr_sd, th_sd, in_sd, 0};
-      csv += fmt::format("{},{},{},{:.4f},{:.4f},{:.4f},{:.4f},{:.4f},{:.4f},{:.4f}\n", r.method, asks(r) ? "yes" : "no", it.train.size(), tr,
-                         tr_sd, th, th_sd, in, in_sd, tr + th + in);
+      auto field = [](double v) { return std::isfinite(v) ? fmt::format("{:.4f}", v) : std::string(); };
+      csv += fmt::format("{},{},{},{:.4f},{:.4f},{:.4f},{:.4f},{},{},{}\n", r.method, asks(r) ? "yes" : "no", it.train.size(), tr, tr_sd,
+                         th, th_sd, field(in), field(in_sd), field(tr + th + in));
       if (!asks(r)) {
         // BC trains once, on its N_f demonstrations, and never asks: it has no iterations to draw
         not_drawn += fmt::format("; {} trained once ({:.0f} s), not drawn", method_title(r.method), tr);
@@ -203,8 +210,8 @@ std::vector<std::string> plot_runs(const PlotOptions& o) {
       ui::write_png(o.dir + "/figure4_wallclock.png",
                     ui::hstack({ui::draw_bars(panels[0]), ui::draw_bars(panels[1]), ui::draw_bars(panels[2]), ui::draw_bars(panels[3])},
                                fmt::format("wall-clock per DAgger iteration (mean, whisker: std over iterations), seed {}; "
-                                           "inference counts the robot's decisions until the next update{}",
-                                           o.seed, not_drawn)));
+                                           "inference counts the robot's decisions until the next update{}{}",
+                                           o.seed, not_drawn, unmeasured ? "; -: no iteration finished yet" : "")));
       written.push_back(o.dir + "/wallclock.csv");
       written.push_back(o.dir + "/figure4_wallclock.png");
     }

@@ -47,6 +47,19 @@ TEST(Plot, BarAreasFollowTheValues) {
   EXPECT_NEAR(static_cast<double>(blue) / red, 3.0, 0.3);
 }
 
+TEST(Plot, AValueNotMeasuredDrawsNoBar) {
+  BarPanel p;
+  p.title = "t";
+  p.y_label = "y";
+  p.categories = {"a", "b"};
+  p.values = {2.0, NAN};
+  p.errors = {0.5, NAN};
+  p.colors = {{255, 0, 0}, {0, 0, 255}};
+  const Image img = draw_bars(p);
+  EXPECT_GT(count_color(img, {255, 0, 0}), 100);  // the measured bar still drawn, to scale
+  EXPECT_EQ(count_color(img, {0, 0, 255}), 0);    // none for the value not measured, not a bar of 0
+}
+
 TEST(Plot, FieldGreysOutBlockedCellsAndStacks) {
   FieldPanel f;
   f.values = Mat::Constant(4, 4, 1.0f);

@@ -147,18 +147,21 @@ Image draw_bars(const BarPanel& p) {
       while (label_scale > 0.3 && text_width(l, label_scale) > fit) label_scale -= 0.02;
   for (int i = 0; i < n; ++i) {
     const int cx = area.x + slot * i + slot / 2, half = slot * 3 / 10;
-    const double v = std::isfinite(p.values[i]) ? p.values[i] : 0;
+    const bool measured = std::isfinite(p.values[i]);
+    const double v = measured ? p.values[i] : 0;
     const Rgb color = p.colors.empty() ? Rgb{90, 120, 200} : p.colors[static_cast<size_t>(i) % p.colors.size()];
-    cv::rectangle(m, {cx - half, y_of(v)}, {cx + half, y_of(0)}, scalar(color), cv::FILLED);
-    cv::rectangle(m, {cx - half, y_of(v)}, {cx + half, y_of(0)}, kInk, 1);
-    if (static_cast<size_t>(i) < p.errors.size() && std::isfinite(p.errors[i]) && p.errors[i] > 0) {
+    if (measured) {
+      cv::rectangle(m, {cx - half, y_of(v)}, {cx + half, y_of(0)}, scalar(color), cv::FILLED);
+      cv::rectangle(m, {cx - half, y_of(v)}, {cx + half, y_of(0)}, kInk, 1);
+    }
+    if (measured && static_cast<size_t>(i) < p.errors.size() && std::isfinite(p.errors[i]) && p.errors[i] > 0) {
       const int y0 = y_of(std::max(0.0, v - p.errors[i])), y1 = y_of(v + p.errors[i]);
       cv::line(m, {cx, y0}, {cx, y1}, kInk, 2);
       cv::line(m, {cx - 8, y0}, {cx + 8, y0}, kInk, 2);
       cv::line(m, {cx - 8, y1}, {cx + 8, y1}, kInk, 2);
     }
     const double err = static_cast<size_t>(i) < p.errors.size() && std::isfinite(p.errors[i]) ? p.errors[i] : 0.0;
-    text(m, fmt_num(v), {cx, y_of(v + err) - 8}, 0.42, kInk, 1, true);
+    text(m, measured ? fmt_num(v) : "-", {cx, y_of(measured ? v + err : 0) - 8}, 0.42, kInk, 1, true);
     if (static_cast<size_t>(i) < labels.size())
       for (size_t k = 0; k < labels[static_cast<size_t>(i)].size(); ++k)
         text(m, labels[static_cast<size_t>(i)][k], {cx, area.y + area.height + 22 + 16 * static_cast<int>(k)}, label_scale, kInk, 1, true);

@@ -19,7 +19,7 @@ struct BarPanel {
   std::string title;
   std::string y_label;              // with units
   std::vector<std::string> categories;
-  std::vector<double> values, errors;
+  std::vector<double> values, errors;  // a value that is not finite: not measured, no bar, "-" over its place
   std::vector<Rgb> colors;          // one per bar (cycled)
   int width = 520, height = 420;
 };
