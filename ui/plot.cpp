@@ -154,14 +154,15 @@ Image draw_bars(const BarPanel& p) {
       cv::rectangle(m, {cx - half, y_of(v)}, {cx + half, y_of(0)}, scalar(color), cv::FILLED);
       cv::rectangle(m, {cx - half, y_of(v)}, {cx + half, y_of(0)}, kInk, 1);
     }
-    if (measured && static_cast<size_t>(i) < p.errors.size() && std::isfinite(p.errors[i]) && p.errors[i] > 0) {
-      const int y0 = y_of(std::max(0.0, v - p.errors[i])), y1 = y_of(v + p.errors[i]);
+    // an unmeasured bar has no whisker, and its "-" sits on the axis
+    const double err = measured && static_cast<size_t>(i) < p.errors.size() && std::isfinite(p.errors[i]) ? p.errors[i] : 0.0;
+    if (err > 0) {
+      const int y0 = y_of(std::max(0.0, v - err)), y1 = y_of(v + err);
       cv::line(m, {cx, y0}, {cx, y1}, kInk, 2);
       cv::line(m, {cx - 8, y0}, {cx + 8, y0}, kInk, 2);
       cv::line(m, {cx - 8, y1}, {cx + 8, y1}, kInk, 2);
     }
-    const double err = static_cast<size_t>(i) < p.errors.size() && std::isfinite(p.errors[i]) ? p.errors[i] : 0.0;
-    text(m, measured ? fmt_num(v) : "-", {cx, y_of(measured ? v + err : 0) - 8}, 0.42, kInk, 1, true);
+    text(m, measured ? fmt_num(v) : "-", {cx, y_of(v + err) - 8}, 0.42, kInk, 1, true);
     if (static_cast<size_t>(i) < labels.size())
       for (size_t k = 0; k < labels[static_cast<size_t>(i)].size(); ++k)
         text(m, labels[static_cast<size_t>(i)][k], {cx, area.y + area.height + 22 + 16 * static_cast<int>(k)}, label_scale, kInk, 1, true);
